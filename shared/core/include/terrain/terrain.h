@@ -1,0 +1,143 @@
+#pragma once
+
+// The authoritative terrain state: the padded fixed-point height grid, sparse detail patches
+// per tile, and the tile and world hashes. Server and client hold one each and keep them equal
+// by applying the same DeformOps.
+// Pure: no I/O, no clocks, no globals. Not thread safe; one owner mutates it.
+
+#include <terrain/deform_op.h>
+#include <terrain/detail_patch.h>
+#include <terrain/result.h>
+#include <terrain/world_spec.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace terrain {
+
+/// A patch and the cell it belongs to, local to its tile (y * kTileCells + x).
+struct PatchEntry {
+    std::uint16_t cell = 0;
+    DetailPatch patch;
+};
+
+/// Inclusive rectangle of cells or vertices.
+struct CellRect {
+    std::int32_t x0 = 0;
+    std::int32_t y0 = 0;
+    std::int32_t x1 = -1;
+    std::int32_t y1 = -1;
+    bool empty() const { return x1 < x0 || y1 < y0; }
+};
+
+/// What one op changed; the client replica turns it into re-tessellation work.
+struct OpEffect {
+    CellRect vertices;                     ///< base vertices the op may have changed
+    CellRect cells;                        ///< cells whose surface may have changed
+    std::vector<std::int32_t> dirty_tiles; ///< tile indices whose hash changed, ascending
+    std::int32_t vertices_changed = 0;
+    std::int32_t patches_created = 0;
+    std::int32_t patches_removed = 0;
+    std::int32_t patches_changed = 0;
+};
+
+struct MemoryUsage {
+    std::size_t sample_bytes = 0; ///< the base grid (padded)
+    std::size_t patch_bytes = 0;  ///< patch entries in use
+    std::size_t tile_bytes = 0;   ///< per-tile bookkeeping (hash, patch vector headers)
+    std::size_t total() const { return sample_bytes + patch_bytes + tile_bytes; }
+};
+
+inline constexpr std::size_t kBytesPerPatch = sizeof(PatchEntry);
+
+class Terrain {
+  public:
+    /// Builds a flat-patchless terrain from `samples` (width * height, row-major, quanta).
+    /// Samples beyond the map are padded by repeating the last row and column.
+    /// Errors: the spec's own rules; kSizeMismatch when samples.size() != width * height;
+    /// kOutOfRange for a sample beyond +-kMaxHeightQuanta.
+    static Result<Terrain> create(const WorldSpec& spec, std::span<const std::int32_t> samples);
+
+    const WorldSpec& spec() const { return spec_; }
+
+    /// Base sample at vertex (x, y) of the padded grid.
+    std::int32_t sample(std::int32_t x, std::int32_t y) const {
+        return samples_
+            [static_cast<std::size_t>(y) * static_cast<std::size_t>(padded_width_) +
+             static_cast<std::size_t>(x)];
+    }
+    CellCorners corners(std::int32_t cx, std::int32_t cy) const {
+        return {sample(cx, cy), sample(cx + 1, cy), sample(cx, cy + 1), sample(cx + 1, cy + 1)};
+    }
+    std::span<const std::int32_t> paddedSamples() const { return samples_; }
+
+    /// The patch of cell (cx, cy), or nullptr where the base triangles are the surface.
+    const DetailPatch* findPatch(std::int32_t cx, std::int32_t cy) const;
+    std::size_t patchCount() const { return patch_count_; }
+    /// Patches of tile t in ascending local cell order.
+    std::span<const PatchEntry> tilePatches(std::int32_t tile) const {
+        return tiles_[static_cast<std::size_t>(tile)].patches;
+    }
+
+    std::uint64_t tileHash(std::int32_t tile) const {
+        return tiles_[static_cast<std::size_t>(tile)].hash;
+    }
+    std::uint64_t worldHash() const { return world_hash_; }
+
+    /// Validates and applies one op. On error nothing changes. Defined in deformation.cpp.
+    Result<OpEffect> apply(const DeformOp& op);
+
+    /// Canonical little-endian bytes of tile t: the input of its hash and a snapshot chunk.
+    /// Layout: u32 tile x, u32 tile y, 65 x 65 i32 samples row-major, u32 patch count, then per
+    /// patch u16 local cell and 25 i32 controls.
+    void appendTileBytes(std::int32_t tile, std::vector<std::uint8_t>& out) const;
+
+    MemoryUsage memoryUsage() const;
+
+    /// Replaces tile t's samples and patches from decoded canonical bytes (snapshot, repair).
+    /// The caller has validated the patch invariants; rehashes the tile and the world.
+    void replaceTile(
+        std::int32_t tile,
+        std::span<const std::int32_t> samples65,
+        std::vector<PatchEntry> patches);
+
+    /// Checks every patch invariant (pinned corners, borders shared or straight). Used after
+    /// decoding untrusted state. The error names the first cell that breaks one.
+    Status checkInvariants() const;
+
+  private:
+    struct Tile {
+        std::vector<PatchEntry> patches; // ascending by cell
+        std::uint64_t hash = 0;
+    };
+
+    Terrain() = default;
+
+    std::int32_t tileOfCell(std::int32_t cx, std::int32_t cy) const {
+        return (cy / kTileCells) * spec_.tilesX() + cx / kTileCells;
+    }
+    static std::uint16_t localCell(std::int32_t cx, std::int32_t cy) {
+        return static_cast<std::uint16_t>((cy % kTileCells) * kTileCells + cx % kTileCells);
+    }
+    void setSample(std::int32_t x, std::int32_t y, std::int32_t value) {
+        samples_
+            [static_cast<std::size_t>(y) * static_cast<std::size_t>(padded_width_) +
+             static_cast<std::size_t>(x)] = value;
+    }
+    /// Inserts, replaces (patch != nullptr) or erases (nullptr) the patch of a cell.
+    void setPatch(std::int32_t cx, std::int32_t cy, const DetailPatch* patch);
+    void rehashTile(std::int32_t tile);
+    void rehashWorld();
+
+    WorldSpec spec_;
+    std::int32_t padded_width_ = 0;
+    std::vector<std::int32_t> samples_;
+    std::vector<Tile> tiles_;
+    std::size_t patch_count_ = 0;
+    std::uint64_t world_hash_ = 0;
+    std::vector<std::uint8_t> scratch_; // reused for tile bytes when hashing
+};
+
+} // namespace terrain

@@ -1,0 +1,304 @@
+// Terrain::apply: one deformation op on base samples and detail patches.
+//
+// Order of work (fixed, so every replica reaches the same bits):
+//  1. new base samples for the vertices inside the op's footprint box, from the old ones;
+//  2. for each cell touching the box, row-major: the candidate surface (old patch, or the old base
+//     triangles, with the op applied pointwise at the control points), and whether the new base
+//     triangles hold it within the patch tolerance on the 17 x 17 grid;
+//  3. border enforcement from a FIFO worklist: a patch border facing a cell without a patch is
+//     put back on the straight base edge; a straightened patch that the base now holds within
+//     tolerance is dropped, which queues its patched neighbours (one ring beyond the footprint at
+//     most: cells outside are straightened but not re-judged until an op touches them);
+//  4. commit, then rehash the tiles whose bytes changed.
+// All arithmetic is integer, in 1/48 quanta (kFineScale), on int64.
+
+#include <terrain/base_cell.h>
+#include <terrain/detail_patch.h>
+#include <terrain/terrain.h>
+
+#include <algorithm>
+
+namespace terrain {
+namespace {
+
+using bspline::kControls;
+using bspline::kGrevilleSixths;
+using bspline::kGridSamples;
+using bspline::kGridSteps;
+
+struct LocalCell {
+    bool has = false;
+    bool judged = false; // inside the footprint: may be dropped by the worklist
+    DetailPatch patch;
+};
+
+bool isCorner(int i, int j) {
+    return (i == 0 || i == kControls - 1) && (j == 0 || j == kControls - 1);
+}
+
+std::int32_t clampControl(std::int64_t c) {
+    constexpr std::int64_t kLimit = kControlScale * kMaxHeightQuanta;
+    return static_cast<std::int32_t>(std::clamp(c, -kLimit, kLimit));
+}
+
+// Does the patch stay farther than `tol` quanta from the base triangles anywhere on its grid?
+bool patchNeeded(const DetailPatch& p, const CellCorners& c, Diagonal d, std::int64_t tol) {
+    std::array<std::int64_t, kPatchGridVertices> g{};
+    gridNumerators(p, g);
+    const std::int64_t limit = tol * kGridSteps * kGridDenominator;
+    for (int l = 0; l < kGridSamples; ++l)
+        for (int k = 0; k < kGridSamples; ++k) {
+            const std::int64_t base16 = baseHeightScaled(c, d, k, l, kGridSteps);
+            const std::int64_t diff = g[static_cast<size_t>(l * kGridSamples + k)] * kGridSteps -
+                                      base16 * kGridDenominator;
+            if (absI64(diff) > limit)
+                return true;
+        }
+    return false;
+}
+
+} // namespace
+
+Result<OpEffect> Terrain::apply(const DeformOp& op) {
+    if (auto status = validateOp(op, spec_); !status)
+        return status.error();
+
+    const std::int64_t h = spec_.spacing;
+    const std::int64_t h48 = h * kFineScale;
+    const std::int64_t reach = footprintRadius(op);
+    const std::int64_t tol = spec_.patch_tolerance;
+
+    OpEffect effect;
+    // vertices inside the footprint's box; only they can change
+    CellRect& vr = effect.vertices;
+    vr.x0 = static_cast<std::int32_t>(std::max<std::int64_t>(0, ceilDiv(op.center_x - reach, h)));
+    vr.y0 = static_cast<std::int32_t>(std::max<std::int64_t>(0, ceilDiv(op.center_y - reach, h)));
+    vr.x1 = static_cast<std::int32_t>(
+        std::min<std::int64_t>(spec_.width - 1, floorDiv(op.center_x + reach, h)));
+    vr.y1 = static_cast<std::int32_t>(
+        std::min<std::int64_t>(spec_.height - 1, floorDiv(op.center_y + reach, h)));
+    // cells meeting the box
+    CellRect& cr = effect.cells;
+    cr.x0 = static_cast<std::int32_t>(std::max<std::int64_t>(0, floorDiv(op.center_x - reach, h)));
+    cr.y0 = static_cast<std::int32_t>(std::max<std::int64_t>(0, floorDiv(op.center_y - reach, h)));
+    cr.x1 = static_cast<std::int32_t>(
+        std::min<std::int64_t>(spec_.cellsX() - 1, floorDiv(op.center_x + reach, h)));
+    cr.y1 = static_cast<std::int32_t>(
+        std::min<std::int64_t>(spec_.cellsY() - 1, floorDiv(op.center_y + reach, h)));
+
+    // 1. new base samples
+    const std::int32_t vw = vr.empty() ? 0 : vr.x1 - vr.x0 + 1;
+    const std::int32_t vh = vr.empty() ? 0 : vr.y1 - vr.y0 + 1;
+    std::vector<std::int32_t> fresh(static_cast<size_t>(vw) * static_cast<size_t>(vh));
+    for (std::int32_t y = vr.y0; y <= vr.y1; ++y)
+        for (std::int32_t x = vr.x0; x <= vr.x1; ++x) {
+            const std::int64_t z = sample(x, y);
+            const std::int64_t x48 = x * h48;
+            const std::int64_t y48 = y * h48;
+            std::int64_t next = z;
+            if (op.kind == OpKind::kSmooth) {
+                const std::int64_t a = (fadeWeight(op, x48, y48) * op.strength) >> 16;
+                if (a != 0) {
+                    // 4-neighbour average of the old samples; the map edge mirrors the vertex
+                    const std::int64_t sum = (x > 0 ? sample(x - 1, y) : z) +
+                                             (x < spec_.width - 1 ? sample(x + 1, y) : z) +
+                                             (y > 0 ? sample(x, y - 1) : z) +
+                                             (y < spec_.height - 1 ? sample(x, y + 1) : z);
+                    next = z + roundDiv((sum - 4 * z) * a, 4 * std::int64_t{kUnitStrength});
+                }
+            } else {
+                next = roundDiv(pointwiseHeight(op, x48, y48, z * kFineScale), kFineScale);
+            }
+            fresh[static_cast<size_t>((y - vr.y0) * vw + (x - vr.x0))] = clampHeight(next);
+        }
+    auto newSample = [&](std::int32_t x, std::int32_t y) {
+        if (x >= vr.x0 && x <= vr.x1 && y >= vr.y0 && y <= vr.y1)
+            return fresh[static_cast<size_t>((y - vr.y0) * vw + (x - vr.x0))];
+        return sample(x, y);
+    };
+    auto newCorners = [&](std::int32_t cx, std::int32_t cy) {
+        return CellCorners{
+            newSample(cx, cy), newSample(cx + 1, cy), newSample(cx, cy + 1),
+            newSample(cx + 1, cy + 1)};
+    };
+
+    // the op applied to a patch's controls (corners are pinned afterwards)
+    auto transform = [&](DetailPatch& p, std::int32_t cx, std::int32_t cy, const CellCorners& co,
+                         const CellCorners& cn) {
+        for (int j = 0; j < kControls; ++j)
+            for (int i = 0; i < kControls; ++i) {
+                if (isCorner(i, j))
+                    continue;
+                // Greville point g/6 of the cell, in 1/48 quanta: g * h * 8
+                const std::int64_t gu = kGrevilleSixths[static_cast<size_t>(i)];
+                const std::int64_t gv = kGrevilleSixths[static_cast<size_t>(j)];
+                const std::int64_t x48 = cx * h48 + gu * h * (kFineScale / kControlScale);
+                const std::int64_t y48 = cy * h48 + gv * h * (kFineScale / kControlScale);
+                const std::int64_t c6 = p.at(i, j);
+                std::int64_t next = c6;
+                if (op.kind == OpKind::kSmooth) {
+                    // shrink the detail above the bilinear surface of the corners; a straight
+                    // border has no detail and stays straight
+                    const std::int64_t a = (fadeWeight(op, x48, y48) * op.strength) >> 16;
+                    auto bilinear36 = [&](const CellCorners& c) {
+                        return (6 - gu) * (6 - gv) * c.h00 + gu * (6 - gv) * c.h10 +
+                               (6 - gu) * gv * c.h01 + gu * gv * c.h11;
+                    };
+                    const std::int64_t detail36 = 6 * c6 - bilinear36(co);
+                    next = roundDiv(bilinear36(cn) + ((detail36 * (kUnitStrength - a)) >> 16), 6);
+                } else {
+                    const std::int64_t f = kFineScale / kControlScale;
+                    next = roundDiv(pointwiseHeight(op, x48, y48, c6 * f), f);
+                }
+                p.at(i, j) = clampControl(next);
+            }
+        pinCorners(p, cn);
+    };
+
+    // does the op put detail into a base cell that its new triangles cannot hold?
+    auto baseCellNeedsPatch = [&](std::int32_t cx, std::int32_t cy, const CellCorners& co,
+                                  const CellCorners& cn, Diagonal d) {
+        if (op.kind == OpKind::kSmooth)
+            return false; // smoothing a base cell leaves it a base cell
+        // nearest point of the cell to the centre: nothing changes beyond the footprint
+        const std::int64_t nx = std::clamp(op.center_x, cx * h, (cx + 1) * h) - op.center_x;
+        const std::int64_t ny = std::clamp(op.center_y, cy * h, (cy + 1) * h) - op.center_y;
+        if (nx * nx + ny * ny >= reach * reach)
+            return false;
+        const CellCorners delta{cn.h00 - co.h00, cn.h10 - co.h10, cn.h01 - co.h01, cn.h11 - co.h11};
+        const std::int64_t step48 = h * (kFineScale / kGridSteps);
+        const std::int64_t to48 = kFineScale / kGridSteps;
+        for (int l = 0; l < kGridSamples; ++l)
+            for (int k = 0; k < kGridSamples; ++k) {
+                const std::int64_t old48 = to48 * baseHeightScaled(co, d, k, l, kGridSteps);
+                const std::int64_t next48 =
+                    pointwiseHeight(op, cx * h48 + k * step48, cy * h48 + l * step48, old48);
+                const std::int64_t linear48 = to48 * baseHeightScaled(delta, d, k, l, kGridSteps);
+                if (absI64(next48 - old48 - linear48) > tol * kFineScale)
+                    return true;
+            }
+        return false;
+    };
+
+    // 2. judge every cell meeting the footprint; keep one more ring for border enforcement
+    CellRect er{
+        std::max(0, cr.x0 - 1), std::max(0, cr.y0 - 1), std::min(spec_.cellsX() - 1, cr.x1 + 1),
+        std::min(spec_.cellsY() - 1, cr.y1 + 1)};
+    const std::int32_t ew = er.x1 - er.x0 + 1;
+    const std::int32_t eh = er.y1 - er.y0 + 1;
+    std::vector<LocalCell> local(static_cast<size_t>(ew) * static_cast<size_t>(eh));
+    auto inEr = [&](std::int32_t cx, std::int32_t cy) {
+        return cx >= er.x0 && cx <= er.x1 && cy >= er.y0 && cy <= er.y1;
+    };
+    auto at = [&](std::int32_t cx, std::int32_t cy) -> LocalCell& {
+        return local[static_cast<size_t>((cy - er.y0) * ew + (cx - er.x0))];
+    };
+    for (std::int32_t cy = er.y0; cy <= er.y1; ++cy)
+        for (std::int32_t cx = er.x0; cx <= er.x1; ++cx)
+            if (const DetailPatch* p = findPatch(cx, cy)) {
+                at(cx, cy).has = true;
+                at(cx, cy).patch = *p;
+            }
+    for (std::int32_t cy = cr.y0; cy <= cr.y1; ++cy)
+        for (std::int32_t cx = cr.x0; cx <= cr.x1; ++cx) {
+            LocalCell& cell = at(cx, cy);
+            cell.judged = true;
+            const CellCorners co = corners(cx, cy);
+            const CellCorners cn = newCorners(cx, cy);
+            const Diagonal d = cellDiagonal(cx, cy);
+            if (cell.has) {
+                transform(cell.patch, cx, cy, co, cn);
+                cell.has = patchNeeded(cell.patch, cn, d, tol);
+            } else if (baseCellNeedsPatch(cx, cy, co, cn, d)) {
+                cell.patch = patchFromBase(co, d);
+                transform(cell.patch, cx, cy, co, cn);
+                cell.has = true;
+            }
+        }
+
+    // 3. borders facing base cells go straight; patches the base now holds are dropped
+    std::vector<std::int32_t> queue;
+    for (std::int32_t cy = er.y0; cy <= er.y1; ++cy)
+        for (std::int32_t cx = er.x0; cx <= er.x1; ++cx)
+            if (at(cx, cy).has)
+                queue.push_back(cy * spec_.cellsX() + cx);
+    for (std::size_t next = 0; next < queue.size(); ++next) {
+        const std::int32_t cx = queue[next] % spec_.cellsX();
+        const std::int32_t cy = queue[next] / spec_.cellsX();
+        LocalCell& cell = at(cx, cy);
+        if (!cell.has)
+            continue;
+        const CellCorners cn = newCorners(cx, cy);
+        bool straightened = false;
+        for (Edge e : kAllEdges) {
+            const CellOffset off = neighbourOffset(e);
+            const std::int32_t nx = cx + off.dx;
+            const std::int32_t ny = cy + off.dy;
+            if (nx < 0 || ny < 0 || nx >= spec_.cellsX() || ny >= spec_.cellsY())
+                continue;
+            const bool neighbour_has = inEr(nx, ny) ? at(nx, ny).has : findPatch(nx, ny) != nullptr;
+            if (!neighbour_has && !isEdgeStraight(cell.patch, e, cn)) {
+                straightenEdge(cell.patch, e, cn);
+                straightened = true;
+            }
+        }
+        if (straightened && cell.judged &&
+            !patchNeeded(cell.patch, cn, cellDiagonal(cx, cy), tol)) {
+            cell.has = false;
+            for (Edge e : kAllEdges) {
+                const CellOffset off = neighbourOffset(e);
+                const std::int32_t nx = cx + off.dx;
+                const std::int32_t ny = cy + off.dy;
+                if (inEr(nx, ny) && at(nx, ny).has)
+                    queue.push_back(ny * spec_.cellsX() + nx);
+            }
+        }
+    }
+
+    // 4. commit
+    auto markVertexTiles = [&](std::int32_t x, std::int32_t y) {
+        for (std::int32_t ty = std::max(0, (y - 1) / kTileCells);
+             ty <= std::min(spec_.tilesY() - 1, y / kTileCells); ++ty)
+            for (std::int32_t tx = std::max(0, (x - 1) / kTileCells);
+                 tx <= std::min(spec_.tilesX() - 1, x / kTileCells); ++tx)
+                effect.dirty_tiles.push_back(ty * spec_.tilesX() + tx);
+    };
+    for (std::int32_t y = vr.y0; y <= vr.y1; ++y)
+        for (std::int32_t x = vr.x0; x <= vr.x1; ++x) {
+            const std::int32_t z = fresh[static_cast<size_t>((y - vr.y0) * vw + (x - vr.x0))];
+            if (z != sample(x, y)) {
+                setSample(x, y, z);
+                ++effect.vertices_changed;
+                markVertexTiles(x, y);
+            }
+        }
+    for (std::int32_t cy = er.y0; cy <= er.y1; ++cy)
+        for (std::int32_t cx = er.x0; cx <= er.x1; ++cx) {
+            LocalCell& cell = at(cx, cy);
+            const DetailPatch* old = findPatch(cx, cy);
+            if (old == nullptr && !cell.has)
+                continue;
+            if (old != nullptr && cell.has && old->control == cell.patch.control)
+                continue;
+            if (cell.has) {
+                updateBounds(cell.patch, corners(cx, cy));
+                (old == nullptr ? effect.patches_created : effect.patches_changed) += 1;
+                setPatch(cx, cy, &cell.patch);
+            } else {
+                ++effect.patches_removed;
+                setPatch(cx, cy, nullptr);
+            }
+            effect.dirty_tiles.push_back(tileOfCell(cx, cy));
+        }
+    std::sort(effect.dirty_tiles.begin(), effect.dirty_tiles.end());
+    effect.dirty_tiles.erase(
+        std::unique(effect.dirty_tiles.begin(), effect.dirty_tiles.end()),
+        effect.dirty_tiles.end());
+    for (std::int32_t tile : effect.dirty_tiles)
+        rehashTile(tile);
+    if (!effect.dirty_tiles.empty())
+        rehashWorld();
+    return effect;
+}
+
+} // namespace terrain

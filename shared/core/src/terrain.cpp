@@ -1,0 +1,199 @@
+#include "byte_io.h"
+
+#include <terrain/terrain.h>
+
+#include <xxhash.h>
+
+#include <algorithm>
+#include <string>
+
+namespace terrain {
+namespace {
+
+std::string cellName(std::int32_t cx, std::int32_t cy) {
+    return "cell (" + std::to_string(cx) + ", " + std::to_string(cy) + ")";
+}
+
+} // namespace
+
+Result<Terrain> Terrain::create(const WorldSpec& spec, std::span<const std::int32_t> samples) {
+    if (auto status = spec.validate(); !status)
+        return status.error();
+    const auto expected =
+        static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height);
+    if (samples.size() != expected)
+        return makeError(
+            ErrorCode::kSizeMismatch,
+            "expected " + std::to_string(expected) + " samples for " + std::to_string(spec.width) +
+                " x " + std::to_string(spec.height) + ", got " + std::to_string(samples.size()));
+    for (std::size_t i = 0; i < samples.size(); ++i)
+        if (samples[i] > kMaxHeightQuanta || samples[i] < -kMaxHeightQuanta)
+            return makeError(
+                ErrorCode::kOutOfRange,
+                "sample " + std::to_string(i) + " = " + std::to_string(samples[i]) +
+                    " quanta is beyond the height limit of +-" + std::to_string(kMaxHeightQuanta));
+
+    Terrain t;
+    t.spec_ = spec;
+    t.padded_width_ = spec.paddedWidth();
+    const std::int32_t ph = spec.paddedHeight();
+    t.samples_.resize(static_cast<std::size_t>(t.padded_width_) * static_cast<std::size_t>(ph));
+    for (std::int32_t y = 0; y < ph; ++y) {
+        const std::int32_t sy = std::min(y, spec.height - 1);
+        for (std::int32_t x = 0; x < t.padded_width_; ++x) {
+            const std::int32_t sx = std::min(x, spec.width - 1);
+            t.setSample(
+                x, y,
+                samples
+                    [static_cast<std::size_t>(sy) * static_cast<std::size_t>(spec.width) +
+                     static_cast<std::size_t>(sx)]);
+        }
+    }
+    t.tiles_.resize(static_cast<std::size_t>(spec.tileCount()));
+    for (std::int32_t tile = 0; tile < spec.tileCount(); ++tile)
+        t.rehashTile(tile);
+    t.rehashWorld();
+    return t;
+}
+
+const DetailPatch* Terrain::findPatch(std::int32_t cx, std::int32_t cy) const {
+    const auto& patches = tiles_[static_cast<std::size_t>(tileOfCell(cx, cy))].patches;
+    if (patches.empty())
+        return nullptr;
+    const std::uint16_t cell = localCell(cx, cy);
+    const auto it = std::lower_bound(
+        patches.begin(), patches.end(), cell,
+        [](const PatchEntry& e, std::uint16_t c) { return e.cell < c; });
+    return (it != patches.end() && it->cell == cell) ? &it->patch : nullptr;
+}
+
+void Terrain::setPatch(std::int32_t cx, std::int32_t cy, const DetailPatch* patch) {
+    auto& patches = tiles_[static_cast<std::size_t>(tileOfCell(cx, cy))].patches;
+    const std::uint16_t cell = localCell(cx, cy);
+    const auto it = std::lower_bound(
+        patches.begin(), patches.end(), cell,
+        [](const PatchEntry& e, std::uint16_t c) { return e.cell < c; });
+    const bool present = it != patches.end() && it->cell == cell;
+    if (patch != nullptr) {
+        if (present) {
+            it->patch = *patch;
+        } else {
+            patches.insert(it, PatchEntry{cell, *patch});
+            ++patch_count_;
+        }
+    } else if (present) {
+        patches.erase(it);
+        --patch_count_;
+    }
+}
+
+void Terrain::appendTileBytes(std::int32_t tile, std::vector<std::uint8_t>& out) const {
+    const std::int32_t tx = tile % spec_.tilesX();
+    const std::int32_t ty = tile / spec_.tilesX();
+    detail::putU32(out, static_cast<std::uint32_t>(tx));
+    detail::putU32(out, static_cast<std::uint32_t>(ty));
+    for (std::int32_t y = 0; y < kTileVertices; ++y)
+        for (std::int32_t x = 0; x < kTileVertices; ++x)
+            detail::putI32(out, sample(tx * kTileCells + x, ty * kTileCells + y));
+    const auto& patches = tiles_[static_cast<std::size_t>(tile)].patches;
+    detail::putU32(out, static_cast<std::uint32_t>(patches.size()));
+    for (const PatchEntry& e : patches) {
+        detail::putU16(out, e.cell);
+        for (std::int32_t c : e.patch.control)
+            detail::putI32(out, c);
+    }
+}
+
+void Terrain::rehashTile(std::int32_t tile) {
+    scratch_.clear();
+    appendTileBytes(tile, scratch_);
+    tiles_[static_cast<std::size_t>(tile)].hash = XXH3_64bits(scratch_.data(), scratch_.size());
+}
+
+void Terrain::rehashWorld() {
+    // the world hash covers the spec, so replicas of different worlds never agree by accident
+    scratch_.clear();
+    detail::putI32(scratch_, spec_.width);
+    detail::putI32(scratch_, spec_.height);
+    detail::putI32(scratch_, spec_.spacing);
+    detail::putI32(scratch_, spec_.units_per_metre);
+    detail::putI32(scratch_, spec_.patch_tolerance);
+    for (const Tile& t : tiles_)
+        detail::putU64(scratch_, t.hash);
+    world_hash_ = XXH3_64bits(scratch_.data(), scratch_.size());
+}
+
+MemoryUsage Terrain::memoryUsage() const {
+    MemoryUsage m;
+    m.sample_bytes = samples_.capacity() * sizeof(std::int32_t);
+    m.tile_bytes = tiles_.capacity() * sizeof(Tile);
+    for (const Tile& t : tiles_)
+        m.patch_bytes += t.patches.capacity() * sizeof(PatchEntry);
+    return m;
+}
+
+void Terrain::replaceTile(
+    std::int32_t tile, std::span<const std::int32_t> samples65, std::vector<PatchEntry> patches) {
+    const std::int32_t tx = tile % spec_.tilesX();
+    const std::int32_t ty = tile / spec_.tilesX();
+    for (std::int32_t y = 0; y < kTileVertices; ++y)
+        for (std::int32_t x = 0; x < kTileVertices; ++x)
+            setSample(
+                tx * kTileCells + x, ty * kTileCells + y,
+                samples65[static_cast<std::size_t>(y * kTileVertices + x)]);
+    auto& slot = tiles_[static_cast<std::size_t>(tile)].patches;
+    patch_count_ -= slot.size();
+    slot = std::move(patches);
+    patch_count_ += slot.size();
+    for (PatchEntry& e : slot) {
+        const std::int32_t cx = tx * kTileCells + e.cell % kTileCells;
+        const std::int32_t cy = ty * kTileCells + e.cell / kTileCells;
+        updateBounds(e.patch, corners(cx, cy));
+    }
+    // edge vertices are shared: neighbouring tiles' bytes may have changed too
+    for (std::int32_t ny = std::max(0, ty - 1); ny <= std::min(spec_.tilesY() - 1, ty + 1); ++ny)
+        for (std::int32_t nx = std::max(0, tx - 1); nx <= std::min(spec_.tilesX() - 1, tx + 1);
+             ++nx)
+            rehashTile(ny * spec_.tilesX() + nx);
+    rehashWorld();
+}
+
+Status Terrain::checkInvariants() const {
+    for (std::int32_t tile = 0; tile < spec_.tileCount(); ++tile) {
+        const std::int32_t tx = tile % spec_.tilesX();
+        const std::int32_t ty = tile / spec_.tilesX();
+        for (const PatchEntry& e : tiles_[static_cast<std::size_t>(tile)].patches) {
+            const std::int32_t cx = tx * kTileCells + e.cell % kTileCells;
+            const std::int32_t cy = ty * kTileCells + e.cell / kTileCells;
+            if (cx >= spec_.cellsX() || cy >= spec_.cellsY())
+                return makeError(
+                    ErrorCode::kInvariantBroken, cellName(cx, cy) + " is outside the map");
+            const CellCorners c = corners(cx, cy);
+            if (!areCornersPinned(e.patch, c))
+                return makeError(
+                    ErrorCode::kInvariantBroken,
+                    cellName(cx, cy) + ": patch corners are not pinned to the base samples");
+            for (Edge edge : kAllEdges) {
+                const CellOffset off = neighbourOffset(edge);
+                const std::int32_t nx = cx + off.dx;
+                const std::int32_t ny = cy + off.dy;
+                if (nx < 0 || ny < 0 || nx >= spec_.cellsX() || ny >= spec_.cellsY())
+                    continue; // the map edge has no neighbour to agree with
+                if (const DetailPatch* n = findPatch(nx, ny)) {
+                    for (int k = 0; k < bspline::kControls; ++k)
+                        if (edgeControl(e.patch, edge, k) != edgeControl(*n, opposite(edge), k))
+                            return makeError(
+                                ErrorCode::kInvariantBroken,
+                                cellName(cx, cy) + ": border differs from the neighbour patch");
+                } else if (!isEdgeStraight(e.patch, edge, c)) {
+                    return makeError(
+                        ErrorCode::kInvariantBroken,
+                        cellName(cx, cy) + ": border next to a base cell is not straight");
+                }
+            }
+        }
+    }
+    return Ok{};
+}
+
+} // namespace terrain

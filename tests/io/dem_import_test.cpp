@@ -1,0 +1,244 @@
+#include <terrain/io/dem_import.h>
+#include <terrain/io/png_image.h>
+#include <terrain/io/shaded_relief.h>
+
+#include <gtest/gtest.h>
+#include <png.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+namespace terrain::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kDemDir = TERRAIN_DEM_DIR;
+
+#define REQUIRE_DEM(name)                                                                          \
+    if (!fs::exists(kDemDir / name))                                                               \
+    GTEST_SKIP() << "reference DEM " << (kDemDir / name) << " is absent (../shared/data/dem)"
+
+std::vector<std::uint8_t> int16Raw(const std::vector<std::int16_t>& v) {
+    std::vector<std::uint8_t> out;
+    for (std::int16_t s : v) {
+        out.push_back(static_cast<std::uint8_t>(s & 0xff));
+        out.push_back(static_cast<std::uint8_t>((s >> 8) & 0xff));
+    }
+    return out;
+}
+
+std::vector<std::uint8_t> floatRaw(const std::vector<float>& v) {
+    std::vector<std::uint8_t> out(v.size() * 4);
+    std::memcpy(out.data(), v.data(), out.size()); // the test host is little-endian like the format
+    return out;
+}
+
+const char* kSidecar3x2 = R"({"width": 3, "height": 2, "sample_type": "int16",
+    "byte_order": "little-endian", "nodata": -32768, "vertical_scale": 1.0,
+    "horizontal": {"spacing_m": {"x": 30.0, "y": 30.0}}})";
+
+TEST(DemImport, readsInt16AndTakesSpacingFromTheSidecar) {
+    auto dem = importDemFromMemory(kSidecar3x2, int16Raw({100, 101, 102, 200, 201, 202}), {});
+    ASSERT_TRUE(dem.ok()) << dem.error().message;
+    EXPECT_EQ(dem->terrain.spec().width, 3);
+    EXPECT_EQ(dem->terrain.spec().spacing, 30 * 1024);
+    EXPECT_EQ(dem->info.spacing_source, "horizontal.spacing_m.x");
+    EXPECT_EQ(dem->terrain.sample(2, 1), 202 * 1024);
+    EXPECT_EQ(dem->terrain.sample(0, 0), 100 * 1024);
+}
+
+TEST(DemImport, fillsNodataWithTheLowestValidSampleAndCountsIt) {
+    auto dem = importDemFromMemory(kSidecar3x2, int16Raw({100, -32768, 102, 200, 201, 90}), {});
+    ASSERT_TRUE(dem.ok());
+    EXPECT_EQ(dem->info.nodata_filled, 1);
+    EXPECT_EQ(dem->terrain.sample(1, 0), 90 * 1024);
+}
+
+TEST(DemImport, readsFloat32AndRefusesNonFiniteSamples) {
+    const char* json = R"({"width": 2, "height": 2, "sample_type": "float32",
+        "horizontal": {"approx_spacing_m": {"x": 10.5}}})";
+    auto dem = importDemFromMemory(json, floatRaw({1.5f, 2.25f, -3.0f, 4.0f}), {});
+    ASSERT_TRUE(dem.ok()) << dem.error().message;
+    EXPECT_EQ(dem->terrain.sample(1, 0), 2304);
+    EXPECT_EQ(dem->info.spacing_source, "horizontal.approx_spacing_m.x");
+    auto nan = importDemFromMemory(json, floatRaw({1.5f, NAN, -3.0f, 4.0f}), {});
+    ASSERT_FALSE(nan.ok());
+    EXPECT_EQ(nan.error().code, ErrorCode::kNotFinite);
+    auto inf = importDemFromMemory(json, floatRaw({1.5f, 2.f, INFINITY, 4.0f}), {});
+    EXPECT_EQ(inf.error().code, ErrorCode::kNotFinite);
+    auto huge = importDemFromMemory(json, floatRaw({1.5f, 2.f, 3e30f, 4.0f}), {});
+    EXPECT_EQ(huge.error().code, ErrorCode::kOutOfRange);
+}
+
+TEST(DemImport, refusesTruncatedOrMissizedRawFiles) {
+    const auto raw = int16Raw({100, 101, 102, 200, 201, 202});
+    for (std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{11}}) {
+        auto dem = importDemFromMemory(kSidecar3x2, std::span(raw.data(), n), {});
+        ASSERT_FALSE(dem.ok());
+        EXPECT_EQ(dem.error().code, ErrorCode::kSizeMismatch);
+        EXPECT_NE(dem.error().message.find("needs 12"), std::string::npos) << dem.error().message;
+    }
+    auto longer = raw;
+    longer.push_back(0);
+    longer.push_back(0);
+    EXPECT_EQ(importDemFromMemory(kSidecar3x2, longer, {}).error().code, ErrorCode::kSizeMismatch);
+}
+
+TEST(DemImport, refusesWrongJsonWithTheFieldNamed) {
+    const auto raw = int16Raw({1, 2, 3, 4});
+    struct Case {
+        const char* json;
+        ErrorCode code;
+        const char* says;
+    } cases[] = {
+        {"{not json", ErrorCode::kBadFormat, "JSON"},
+        {"[1, 2]", ErrorCode::kBadFormat, "object"},
+        {R"({"height": 2, "sample_type": "int16"})", ErrorCode::kBadFormat, "width"},
+        {R"({"width": "2", "height": 2, "sample_type": "int16"})", ErrorCode::kBadFormat, "width"},
+        {R"({"width": 2.5, "height": 2, "sample_type": "int16"})", ErrorCode::kBadFormat, "width"},
+        {R"({"width": 1, "height": 2, "sample_type": "int16"})", ErrorCode::kOutOfRange, "width"},
+        {R"({"width": -4, "height": 2, "sample_type": "int16"})", ErrorCode::kOutOfRange, "width"},
+        {R"({"width": 2, "height": 2, "sample_type": "uint8"})", ErrorCode::kUnsupported, "uint8"},
+        {R"({"width": 2, "height": 2, "sample_type": 16})", ErrorCode::kBadFormat, "sample_type"},
+        {R"({"width": 2, "height": 2, "sample_type": "int16", "byte_order": "big-endian"})",
+         ErrorCode::kBadFormat, "byte_order"},
+        {R"({"width": 2, "height": 2, "sample_type": "int16"})", ErrorCode::kBadFormat, "spacing"},
+        {R"({"width": 2, "height": 2, "sample_type": "int16", "vertical_scale": -1,
+             "horizontal": {"spacing_m": {"x": 1}}})",
+         ErrorCode::kOutOfRange, "vertical scale"},
+        {R"({"width": 2, "height": 2, "sample_type": "int16", "nodata": "none",
+             "horizontal": {"spacing_m": {"x": 1}}})",
+         ErrorCode::kBadFormat, "nodata"},
+    };
+    for (const Case& c : cases) {
+        auto dem = importDemFromMemory(c.json, raw, {});
+        ASSERT_FALSE(dem.ok()) << c.json;
+        EXPECT_EQ(dem.error().code, c.code) << c.json << " -> " << dem.error().message;
+        EXPECT_NE(dem.error().message.find(c.says), std::string::npos) << dem.error().message;
+    }
+}
+
+TEST(DemImport, fileImportRefusesPathsOutsideTheSidecarFolderAndMissingFiles) {
+    const fs::path dir = fs::temp_directory_path() / "terrain_dem_import_test";
+    fs::create_directories(dir);
+    std::ofstream(dir / "evil.json")
+        << R"({"file": "../etc/passwd", "width": 2, "height": 2, "sample_type": "int16"})";
+    auto evil = importDem(dir / "evil.json", {});
+    ASSERT_FALSE(evil.ok());
+    EXPECT_NE(evil.error().message.find("file"), std::string::npos);
+    auto missing = importDem(dir / "nothing.json", {});
+    EXPECT_EQ(missing.error().code, ErrorCode::kIo);
+    fs::remove_all(dir);
+}
+
+TEST(DemImport, srtmTileMatchesItsSidecar) {
+    REQUIRE_DEM("srtm_n44w072");
+    auto dem = importDem(kDemDir / "srtm_n44w072", {});
+    ASSERT_TRUE(dem.ok()) << dem.error().message;
+    EXPECT_EQ(dem->info.width, 1201);
+    EXPECT_EQ(dem->info.height, 1201);
+    EXPECT_EQ(dem->info.min_metres, 115.0);
+    EXPECT_EQ(dem->info.max_metres, 1908.0);
+    EXPECT_EQ(dem->info.nodata_filled, 0);
+    EXPECT_NEAR(dem->info.spacing_metres, 66.2, 1e-9);
+    // Mt Washington near row 875, col 836 holds the maximum
+    std::int32_t peak = 0;
+    for (int y = 860; y < 890; ++y)
+        for (int x = 820; x < 850; ++x)
+            peak = std::max(peak, dem->terrain.sample(x, y));
+    EXPECT_EQ(peak, 1908 * 1024);
+}
+
+TEST(DemImport, everyReferenceDemImportsWithItsStatedSize) {
+    REQUIRE_DEM("st_helens_usgs_1980");
+    struct Expect {
+        const char* name;
+        int w, h;
+        std::optional<double> spacing;
+    } expects[] = {
+        {"st_helens_usgs_1980", 317, 460, std::nullopt},
+        {"jacksboro_fault", 403, 344, std::nullopt},
+        {"msh_crater_2000", 303, 442, std::nullopt},
+        {"msh_crater_2007", 303, 442, std::nullopt},
+        {"gcanyon_hoppe_1200", 1200, 1200, 40.0}, // the source states no spacing
+    };
+    for (const Expect& e : expects) {
+        DemImportOptions o;
+        o.spacing_metres = e.spacing;
+        auto dem = importDem(kDemDir / e.name, o);
+        ASSERT_TRUE(dem.ok()) << e.name << ": " << dem.error().message;
+        EXPECT_EQ(dem->info.width, e.w);
+        EXPECT_EQ(dem->info.height, e.h);
+    }
+    auto canyon = importDem(kDemDir / "gcanyon_hoppe_1200", {});
+    ASSERT_FALSE(canyon.ok());
+    EXPECT_NE(canyon.error().message.find("spacing"), std::string::npos);
+}
+
+TEST(PngImport, reads16BitGrayscaleValuesExactly) {
+    const fs::path path = fs::temp_directory_path() / "terrain_png16_test.png";
+    const int w = 5;
+    const int h = 4;
+    std::vector<std::uint16_t> values(w * h);
+    for (int i = 0; i < w * h; ++i)
+        values[i] = static_cast<std::uint16_t>(i * 3001);
+    // write with libpng directly: 16-bit gray, big-endian samples
+    {
+        FILE* f = std::fopen(path.c_str(), "wb");
+        ASSERT_NE(f, nullptr);
+        png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+        png_infop info = png_create_info_struct(png);
+        png_init_io(png, f);
+        png_set_IHDR(
+            png, info, w, h, 16, PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE,
+            PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+        png_write_info(png, info);
+        std::vector<std::uint8_t> row(w * 2);
+        for (int y = 0; y < h; ++y) {
+            for (int x = 0; x < w; ++x) {
+                row[2 * x] = static_cast<std::uint8_t>(values[y * w + x] >> 8);
+                row[2 * x + 1] = static_cast<std::uint8_t>(values[y * w + x] & 0xff);
+            }
+            png_write_row(png, row.data());
+        }
+        png_write_end(png, nullptr);
+        png_destroy_write_struct(&png, &info);
+        std::fclose(f);
+    }
+    auto dem = importPng(path, 2.0, 0.01, -100.0, {});
+    ASSERT_TRUE(dem.ok()) << dem.error().message;
+    for (int i = 0; i < w * h; ++i)
+        EXPECT_EQ(
+            dem->terrain.sample(i % w, i / w), std::lround((-100.0 + values[i] * 0.01) * 1024));
+    fs::remove(path);
+
+    const fs::path junk = fs::temp_directory_path() / "terrain_not_a_png.png";
+    std::ofstream(junk) << "definitely not a png";
+    EXPECT_EQ(importPng(junk, 1.0, 1.0, 0.0, {}).error().code, ErrorCode::kBadFormat);
+    fs::remove(junk);
+}
+
+TEST(ShadedRelief, writesAnImageWhoseShadingFollowsTheSlope) {
+    auto dem = importDemFromMemory(
+        R"({"width": 3, "height": 3, "sample_type": "int16", "horizontal": {"spacing_m": {"x": 1}}})",
+        int16Raw({0, 0, 0, 0, 0, 0, 0, 0, 0}), {});
+    ASSERT_TRUE(dem.ok());
+    ReliefOptions o;
+    o.pixels_per_cell = 4;
+    const RgbImage img = renderShadedRelief(dem->terrain, o);
+    EXPECT_EQ(img.width, 9);
+    EXPECT_EQ(img.height, 9);
+    // flat ground: every pixel the same
+    for (std::size_t i = 3; i < img.rgb.size(); ++i)
+        EXPECT_EQ(img.rgb[i], img.rgb[i % 3]);
+    const fs::path out = fs::temp_directory_path() / "terrain_relief_test.png";
+    ASSERT_TRUE(writeRgbPng(out, img).ok());
+    EXPECT_GT(fs::file_size(out), 20u);
+    fs::remove(out);
+}
+
+} // namespace
+} // namespace terrain::io

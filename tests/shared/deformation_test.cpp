@@ -1,0 +1,159 @@
+#include "support/surface_checks.h"
+#include "support/terrain_builders.h"
+
+#include <terrain/deform_op.h>
+#include <terrain/surface_query.h>
+#include <terrain/terrain.h>
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace terrain {
+namespace {
+
+Result<OpEffect> applyRequest(Terrain& t, const OpRequest& r) {
+    auto op = quantizeOp(r, t.spec());
+    if (!op)
+        return op.error();
+    return t.apply(*op);
+}
+
+TEST(Deformation, smallCraterOnOneMetreGridGetsPatchesOnlyNearIt) {
+    Terrain t = testing::makeFlat(129, 129);
+    auto e = applyRequest(t, {OpKind::kCrater, 40.3, 50.7, 3.0, 1.2, 0.25});
+    ASSERT_TRUE(e.ok());
+    EXPECT_GT(t.patchCount(), 0u);
+    // every patch lies within the crater's footprint (2R) plus one cell
+    for (std::int32_t tile = 0; tile < t.spec().tileCount(); ++tile)
+        for (const PatchEntry& p : t.tilePatches(tile)) {
+            const double cx = (tile % t.spec().tilesX()) * 64 + p.cell % 64 + 0.5;
+            const double cy = (tile / t.spec().tilesX()) * 64 + p.cell / 64 + 0.5;
+            EXPECT_LT(std::hypot(cx - 40.3, cy - 50.7), 6.0 + 1.5);
+        }
+    EXPECT_EQ(e->patches_created, static_cast<int>(t.patchCount()));
+    EXPECT_EQ(e->dirty_tiles, (std::vector<std::int32_t>{0}));
+}
+
+TEST(Deformation, broadGentleRaiseIsHeldByTheGridWithoutPatches) {
+    // a 40 m mound of 1 m on a 1 m grid: curvature far below the tolerance
+    Terrain t = testing::makeFlat(129, 129);
+    auto e = applyRequest(t, {OpKind::kRaise, 64, 64, 40, 1.0, 1});
+    ASSERT_TRUE(e.ok());
+    EXPECT_GT(e->vertices_changed, 1000);
+    EXPECT_EQ(t.patchCount(), 0u);
+    EXPECT_EQ(t.memoryUsage().patch_bytes, 0u); // unchanged cells cost nothing beyond the grid
+}
+
+TEST(Deformation, patchAppearsExactlyWhenTheGridMissesTheSurfaceByMoreThanTheTolerance) {
+    // the same crater with a loose and a tight tolerance
+    for (double tol : {0.5, 0.005}) {
+        Terrain t = testing::makeFlat(65, 65);
+        WorldSpec spec = t.spec();
+        spec.patch_tolerance = static_cast<std::int32_t>(tol * 1024);
+        std::vector<std::int32_t> flat(65 * 65, 10 * 1024);
+        Terrain tt = std::move(*Terrain::create(spec, flat));
+        ASSERT_TRUE(applyRequest(tt, {OpKind::kCrater, 30.5, 30.5, 2.0, 0.3, 0.2}).ok());
+        // with patches, the surface follows the analytic crater within tolerance + spline error
+        for (int i = 0; i < 400; ++i) {
+            const double x = 26.5 + 8.0 * (i % 20) / 19.0;
+            const double y = 26.5 + 8.0 * (i / 20) / 19.0;
+            const double r = std::hypot(x - 30.5, y - 30.5);
+            if (std::abs(r - 2.0) < 0.3)
+                continue; // the rim crease is smoothed by any C2 patch
+            const double z = surfaceHeight(tt, x, y);
+            const double expect =
+                10.0 + (r < 2.0 ? -0.3 + 0.36 * (r * r / 4.0)
+                                : (r < 4.0 ? 0.06 * (2 - r / 2) * (2 - r / 2) : 0.0));
+            EXPECT_NEAR(z, expect, tol + 0.03) << "tol " << tol << " at " << x << "," << y;
+        }
+        if (tol == 0.5)
+            EXPECT_EQ(tt.patchCount(), 0u);
+        else
+            EXPECT_GT(tt.patchCount(), 10u);
+    }
+}
+
+TEST(Deformation, smoothingAndFlatteningRemovePatchesAgain) {
+    Terrain t = testing::makeFlat(129, 129);
+    ASSERT_TRUE(applyRequest(t, {OpKind::kCrater, 60, 60, 3.0, 1.2, 0.25}).ok());
+    const std::size_t created = t.patchCount();
+    ASSERT_GT(created, 0u);
+    int removed = 0;
+    for (int i = 0; i < 30 && t.patchCount() > 0; ++i) {
+        auto e = applyRequest(t, {OpKind::kSmooth, 60, 60, 9.0, 0, 1.0});
+        ASSERT_TRUE(e.ok());
+        removed += e->patches_removed;
+    }
+    EXPECT_LT(t.patchCount(), created);
+    EXPECT_GT(removed, 0);
+    testing::expectWatertight(t);
+
+    auto f = applyRequest(t, {OpKind::kFlatten, 60, 60, 12.0, 10.0, 1.0});
+    ASSERT_TRUE(f.ok());
+    auto g = applyRequest(t, {OpKind::kFlatten, 60, 60, 12.0, 10.0, 1.0});
+    ASSERT_TRUE(g.ok());
+    EXPECT_EQ(t.patchCount(), 0u) << "a flattened area needs no patches";
+    EXPECT_NEAR(surfaceHeight(t, 60, 60), 10.0, 1e-3);
+}
+
+TEST(Deformation, onlyTouchedTilesChangeTheirHash) {
+    Terrain t = testing::makeHills(21, 300, 300);
+    std::vector<std::uint64_t> before;
+    for (std::int32_t i = 0; i < t.spec().tileCount(); ++i)
+        before.push_back(t.tileHash(i));
+    // a crater on the seam between tiles (1,1) and (2,1) of a 5 x 5 tile grid
+    auto e = applyRequest(t, {OpKind::kCrater, 128.2, 100, 2.5, 1.0, 0.3});
+    ASSERT_TRUE(e.ok());
+    for (std::int32_t i = 0; i < t.spec().tileCount(); ++i) {
+        const bool dirty = std::binary_search(e->dirty_tiles.begin(), e->dirty_tiles.end(), i);
+        EXPECT_EQ(t.tileHash(i) != before[static_cast<std::size_t>(i)], dirty) << "tile " << i;
+    }
+    EXPECT_EQ(e->dirty_tiles, (std::vector<std::int32_t>{6, 7})); // 5 tiles per row
+    EXPECT_EQ(testing::freshHash(t), t.worldHash());
+}
+
+TEST(Deformation, incrementalHashEqualsRecomputedHashAfterManyOps) {
+    Terrain t = testing::makeHills(22);
+    CraterSeries s;
+    s.seed = 3;
+    s.count = 150;
+    testing::applyAll(t, randomCraters(t.spec(), s));
+    EXPECT_EQ(testing::freshHash(t), t.worldHash());
+}
+
+TEST(Deformation, opOnACoarseGridNeedsPatchesOnlyWhenTheToleranceAsksForThem) {
+    // 30 m DEM-like spacing, a 400 m mound of 30 m: linear interpolation on the grid misses it by
+    // at most M h^2 / 4 = (8 * 30 / 400^2) * 30^2 / 4 = 0.34 m
+    for (double tol : {1.0, 0.1}) {
+        WorldSpec spec;
+        spec.width = spec.height = 129;
+        spec.spacing = 30 * 1024;
+        spec.patch_tolerance = static_cast<std::int32_t>(tol * 1024);
+        std::vector<std::int32_t> flat(129 * 129, 500 * 1024);
+        Terrain t = std::move(*Terrain::create(spec, flat));
+        ASSERT_TRUE(applyRequest(t, {OpKind::kRaise, 1900, 1900, 400, 30, 1}).ok());
+        if (tol == 1.0)
+            EXPECT_EQ(t.patchCount(), 0u);
+        else
+            EXPECT_GT(t.patchCount(), 0u);
+    }
+}
+
+TEST(Deformation, opsAtMapCornersAndEdgesClipAndStayValid) {
+    Terrain t = testing::makeHills(23);
+    const double ex = t.spec().extentX();
+    const double ey = t.spec().extentY();
+    for (auto [x, y] :
+         {std::pair{0.0, 0.0}, {ex, 0.0}, {0.0, ey}, {ex, ey}, {ex / 2, 0.0}, {0.0, ey / 2}}) {
+        auto e = applyRequest(t, {OpKind::kCrater, x, y, 4.0, 1.5, 0.3});
+        ASSERT_TRUE(e.ok()) << e.error().message;
+        EXPECT_GT(e->vertices_changed, 0);
+    }
+    EXPECT_TRUE(t.checkInvariants().ok());
+    testing::expectWatertight(t);
+    EXPECT_EQ(testing::freshHash(t), t.worldHash());
+}
+
+} // namespace
+} // namespace terrain

@@ -1,0 +1,69 @@
+#pragma once
+
+// Builders shared by the test suites: small worlds with known content.
+
+#include <terrain/op_script.h>
+#include <terrain/procedural_map.h>
+#include <terrain/terrain.h>
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace terrain::testing {
+
+/// Flat world at `height_m`, spacing in metres.
+inline Terrain
+makeFlat(std::int32_t w, std::int32_t h, double spacing_m = 1.0, double height_m = 10.0) {
+    WorldSpec spec;
+    spec.width = w;
+    spec.height = h;
+    spec.spacing = static_cast<std::int32_t>(spacing_m * spec.units_per_metre);
+    std::vector<std::int32_t> s(
+        static_cast<std::size_t>(w) * static_cast<std::size_t>(h),
+        static_cast<std::int32_t>(height_m * spec.units_per_metre));
+    auto t = Terrain::create(spec, s);
+    EXPECT_TRUE(t.ok());
+    return std::move(*t);
+}
+
+/// Rolling procedural world; sizes deliberately not k * 64 + 1 so padding is exercised.
+inline Terrain
+makeHills(std::uint64_t seed, std::int32_t w = 150, std::int32_t h = 140, double spacing_m = 1.0) {
+    ProceduralMapOptions o;
+    o.seed = seed;
+    o.width = w;
+    o.height = h;
+    o.spacing_metres = spacing_m;
+    o.amplitude_metres = 12.0;
+    o.wavelength_metres = 64.0;
+    o.octaves = 4;
+    auto t = makeProceduralMap(o);
+    EXPECT_TRUE(t.ok());
+    return std::move(*t);
+}
+
+/// Applies every request; all must be valid.
+inline void applyAll(Terrain& t, const std::vector<OpRequest>& ops) {
+    for (const OpRequest& r : ops) {
+        auto op = quantizeOp(r, t.spec());
+        ASSERT_TRUE(op.ok()) << op.error().message;
+        auto effect = t.apply(*op);
+        ASSERT_TRUE(effect.ok()) << effect.error().message;
+    }
+}
+
+/// Hashes recomputed from scratch through a snapshot round trip.
+inline std::uint64_t freshHash(const Terrain& t);
+
+} // namespace terrain::testing
+
+#include <terrain/snapshot.h>
+
+inline std::uint64_t terrain::testing::freshHash(const Terrain& t) {
+    auto decoded = decodeSnapshot(encodeSnapshot(t, 0));
+    EXPECT_TRUE(decoded.ok()) << (decoded.ok() ? "" : decoded.error().message);
+    return decoded.ok() ? decoded->terrain.worldHash() : 0;
+}
