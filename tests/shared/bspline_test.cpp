@@ -76,5 +76,16 @@ TEST(BSplineBasis, gridWeightsAreExactAndSymmetric) {
     }
 }
 
+TEST(BSplineBasis, interpolationMatrixInvertsTheGrevilleCollocation) {
+    // kInterpolation * N(g) = kInterpolationScale * I, exactly
+    for (int i = 0; i < kControls; ++i)
+        for (int j = 0; j < kControls; ++j) {
+            double s = 0.0;
+            for (int k = 0; k < kControls; ++k)
+                s += kInterpolation[i][k] * evaluate(kGrevilleSixths[k] / 6.0).value[j];
+            EXPECT_NEAR(s, i == j ? kInterpolationScale : 0.0, 1e-12) << i << "," << j;
+        }
+}
+
 } // namespace
 } // namespace terrain::bspline

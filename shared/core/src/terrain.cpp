@@ -104,6 +104,24 @@ void Terrain::appendTileBytes(std::int32_t tile, std::vector<std::uint8_t>& out)
     }
 }
 
+namespace {
+
+std::uint64_t hashWorld(
+    const WorldSpec& spec,
+    std::span<const std::uint64_t> tile_hashes,
+    std::vector<std::uint8_t>& scratch) {
+    // the world hash covers the spec, so replicas of different worlds never agree by accident
+    scratch.clear();
+    for (std::int32_t v :
+         {spec.width, spec.height, spec.spacing, spec.units_per_metre, spec.patch_tolerance})
+        detail::putI32(scratch, v);
+    for (std::uint64_t h : tile_hashes)
+        detail::putU64(scratch, h);
+    return XXH3_64bits(scratch.data(), scratch.size());
+}
+
+} // namespace
+
 void Terrain::rehashTile(std::int32_t tile) {
     scratch_.clear();
     appendTileBytes(tile, scratch_);
@@ -111,16 +129,24 @@ void Terrain::rehashTile(std::int32_t tile) {
 }
 
 void Terrain::rehashWorld() {
-    // the world hash covers the spec, so replicas of different worlds never agree by accident
-    scratch_.clear();
-    detail::putI32(scratch_, spec_.width);
-    detail::putI32(scratch_, spec_.height);
-    detail::putI32(scratch_, spec_.spacing);
-    detail::putI32(scratch_, spec_.units_per_metre);
-    detail::putI32(scratch_, spec_.patch_tolerance);
-    for (const Tile& t : tiles_)
-        detail::putU64(scratch_, t.hash);
-    world_hash_ = XXH3_64bits(scratch_.data(), scratch_.size());
+    tile_hashes_.resize(tiles_.size());
+    for (std::size_t i = 0; i < tiles_.size(); ++i)
+        tile_hashes_[i] = tiles_[i].hash;
+    world_hash_ = hashWorld(spec_, tile_hashes_, scratch_);
+}
+
+std::uint64_t Terrain::computeTileHash(std::int32_t tile) const {
+    std::vector<std::uint8_t> bytes;
+    appendTileBytes(tile, bytes);
+    return XXH3_64bits(bytes.data(), bytes.size());
+}
+
+std::uint64_t Terrain::computeWorldHash() const {
+    std::vector<std::uint64_t> hashes(tiles_.size());
+    for (std::size_t i = 0; i < tiles_.size(); ++i)
+        hashes[i] = computeTileHash(static_cast<std::int32_t>(i));
+    std::vector<std::uint8_t> scratch;
+    return hashWorld(spec_, hashes, scratch);
 }
 
 MemoryUsage Terrain::memoryUsage() const {

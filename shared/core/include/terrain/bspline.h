@@ -18,6 +18,19 @@ inline constexpr std::array<double, 9> kKnots = {0, 0, 0, 0, 0.5, 1, 1, 1, 1};
 /// Stored as numerators over 6.
 inline constexpr std::array<std::int64_t, kControls> kGrevilleSixths = {0, 1, 3, 5, 6};
 
+/// Interpolation at the Greville points: controls c = kInterpolation * f / kInterpolationScale
+/// make the spline pass through values f given at the five Greville points (exact inverse of
+/// the 5 x 5 collocation matrix N_j(g_i); rows 0 and 4 are unit rows, so the end controls depend
+/// on the end values only). Cubic interpolation reproduces polynomials up to degree 3.
+inline constexpr std::int64_t kInterpolationScale = 120;
+inline constexpr std::array<std::array<std::int64_t, kControls>, kControls> kInterpolation = {{
+    {120, 0, 0, 0, 0},
+    {-72, 243, -70, 27, -8},
+    {40, -135, 310, -135, 40},
+    {-8, 27, -70, 243, -72},
+    {0, 0, 0, 0, 120},
+}};
+
 /// Evaluation grid: 17 samples per side at u = k/16.
 inline constexpr int kGridSamples = 17;
 inline constexpr int kGridSteps = kGridSamples - 1;

@@ -86,6 +86,11 @@ class Terrain {
     }
     std::uint64_t worldHash() const { return world_hash_; }
 
+    /// Hashes recomputed from the current state, ignoring the incremental ones (for checks and
+    /// benchmarks; allocates a scratch buffer).
+    std::uint64_t computeTileHash(std::int32_t tile) const;
+    std::uint64_t computeWorldHash() const;
+
     /// Validates and applies one op. On error nothing changes. Defined in deformation.cpp.
     Result<OpEffect> apply(const DeformOp& op);
 
@@ -137,7 +142,8 @@ class Terrain {
     std::vector<Tile> tiles_;
     std::size_t patch_count_ = 0;
     std::uint64_t world_hash_ = 0;
-    std::vector<std::uint8_t> scratch_; // reused for tile bytes when hashing
+    std::vector<std::uint8_t> scratch_;      // reused for tile bytes when hashing
+    std::vector<std::uint64_t> tile_hashes_; // reused by rehashWorld
 };
 
 } // namespace terrain
