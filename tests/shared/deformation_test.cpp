@@ -2,6 +2,7 @@
 #include "support/terrain_builders.h"
 
 #include <terrain/deform_op.h>
+#include <terrain/patch_decision.h>
 #include <terrain/surface_query.h>
 #include <terrain/terrain.h>
 
@@ -159,6 +160,64 @@ TEST(Deformation, opsAtMapCornersAndEdgesClipAndStayValid) {
     EXPECT_TRUE(t.checkInvariants().ok());
     testing::expectWatertight(t);
     EXPECT_EQ(testing::freshHash(t), t.worldHash());
+}
+
+} // namespace
+} // namespace terrain
+
+namespace terrain {
+namespace {
+
+// The prefilter may only skip cells that the exhaustive 289-point check would also leave
+// without a patch; it must also actually skip cells on a broad crater.
+TEST(PatchDecision, curvaturePrefilterNeverSkipsACellThatNeedsAPatch) {
+    std::mt19937 rng(77);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    const Terrain t = testing::makeHills(61, 130, 130);
+    const WorldSpec& spec = t.spec();
+    int skipped = 0;
+    int needed = 0;
+    for (int n = 0; n < 400; ++n) {
+        const bool crater = n % 2 == 0;
+        OpRequest r{
+            crater ? OpKind::kCrater : OpKind::kRaise,
+            20 + unit(rng) * 90,
+            20 + unit(rng) * 90,
+            0.5 + unit(rng) * 24,
+            0.0,
+            crater ? unit(rng) * 0.5 : 1.0};
+        r.height = crater ? r.radius * (0.05 + 0.5 * unit(rng)) : (unit(rng) - 0.5) * r.radius;
+        if (std::abs(r.height) < 0.01)
+            r.height = 0.05;
+        const DeformOp op = *quantizeOp(r, spec);
+        const std::int64_t tol = 4 + static_cast<std::int64_t>(unit(rng) * 200);
+        const std::int64_t h = spec.spacing;
+        for (int k = 0; k < 12; ++k) {
+            const std::int32_t cx = static_cast<std::int32_t>(
+                (op.center_x / h) + (unit(rng) - 0.5) * 2.2 * op.radius / h);
+            const std::int32_t cy = static_cast<std::int32_t>(
+                (op.center_y / h) + (unit(rng) - 0.5) * 2.2 * op.radius / h);
+            if (cx < 0 || cy < 0 || cx >= spec.cellsX() || cy >= spec.cellsY())
+                continue;
+            const CellCorners co = t.corners(cx, cy);
+            auto moved = [&](std::int32_t x, std::int32_t y, std::int32_t z) {
+                return clampHeight(roundDiv(
+                    pointwiseHeight(op, x * h * 48, y * h * 48, std::int64_t{z} * 48), 48));
+            };
+            const CellCorners cn{
+                moved(cx, cy, co.h00), moved(cx + 1, cy, co.h10), moved(cx, cy + 1, co.h01),
+                moved(cx + 1, cy + 1, co.h11)};
+            const bool exhaustive = baseCellNeedsPatchExhaustive(op, cx, cy, co, cn, h, tol);
+            needed += exhaustive;
+            if (curvatureFitsTolerance(op, cx, cy, h, tol)) {
+                ++skipped;
+                EXPECT_FALSE(exhaustive)
+                    << describe(op, spec) << " cell " << cx << "," << cy << " tol " << tol;
+            }
+        }
+    }
+    EXPECT_GT(skipped, 500);
+    EXPECT_GT(needed, 200);
 }
 
 } // namespace

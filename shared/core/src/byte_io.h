@@ -2,6 +2,7 @@
 
 // Little-endian encoding helpers private to the core (hash input, snapshots).
 
+#include <bit>
 #include <cstdint>
 #include <cstring>
 #include <span>
@@ -59,6 +60,19 @@ class ByteReader {
         return true;
     }
     bool u64(std::uint64_t& v) { return read(8, v); }
+    /// Reads n little-endian int32 values in one go.
+    bool i32s(std::int32_t* out, std::size_t n) {
+        if (remaining() / 4 < n)
+            return false;
+        if constexpr (std::endian::native == std::endian::little) {
+            std::memcpy(out, bytes_.data() + pos_, n * 4);
+            pos_ += n * 4;
+            return true;
+        }
+        for (std::size_t i = 0; i < n; ++i)
+            i32(out[i]);
+        return true;
+    }
     bool skip(std::size_t n) {
         if (remaining() < n)
             return false;

@@ -18,6 +18,7 @@
 
 #include <terrain/base_cell.h>
 #include <terrain/detail_patch.h>
+#include <terrain/patch_decision.h>
 #include <terrain/terrain.h>
 
 #include <algorithm>
@@ -43,22 +44,6 @@ bool isCorner(int i, int j) {
 std::int32_t clampControl(std::int64_t c) {
     constexpr std::int64_t kLimit = kControlScale * kMaxHeightQuanta;
     return static_cast<std::int32_t>(std::clamp(c, -kLimit, kLimit));
-}
-
-// Does the patch stay farther than `tol` quanta from the base triangles anywhere on its grid?
-bool patchNeeded(const DetailPatch& p, const CellCorners& c, Diagonal d, std::int64_t tol) {
-    std::array<std::int64_t, kPatchGridVertices> g{};
-    gridNumerators(p, g);
-    const std::int64_t limit = tol * kGridSteps * kGridDenominator;
-    for (int l = 0; l < kGridSamples; ++l)
-        for (int k = 0; k < kGridSamples; ++k) {
-            const std::int64_t base16 = baseHeightScaled(c, d, k, l, kGridSteps);
-            const std::int64_t diff = g[static_cast<size_t>(l * kGridSamples + k)] * kGridSteps -
-                                      base16 * kGridDenominator;
-            if (absI64(diff) > limit)
-                return true;
-        }
-    return false;
 }
 
 } // namespace
@@ -188,31 +173,6 @@ Result<OpEffect> Terrain::apply(const DeformOp& op) {
         pinCorners(p, cn);
     };
 
-    // does the op put detail into a base cell that its new triangles cannot hold?
-    auto baseCellNeedsPatch = [&](std::int32_t cx, std::int32_t cy, const CellCorners& co,
-                                  const CellCorners& cn, Diagonal d) {
-        if (op.kind == OpKind::kSmooth)
-            return false; // smoothing a base cell leaves it a base cell
-        // nearest point of the cell to the centre: nothing changes beyond the footprint
-        const std::int64_t nx = std::clamp(op.center_x, cx * h, (cx + 1) * h) - op.center_x;
-        const std::int64_t ny = std::clamp(op.center_y, cy * h, (cy + 1) * h) - op.center_y;
-        if (nx * nx + ny * ny >= reach * reach)
-            return false;
-        const CellCorners delta{cn.h00 - co.h00, cn.h10 - co.h10, cn.h01 - co.h01, cn.h11 - co.h11};
-        const std::int64_t step48 = h * (kFineScale / kGridSteps);
-        const std::int64_t to48 = kFineScale / kGridSteps;
-        for (int l = 0; l < kGridSamples; ++l)
-            for (int k = 0; k < kGridSamples; ++k) {
-                const std::int64_t old48 = to48 * baseHeightScaled(co, d, k, l, kGridSteps);
-                const std::int64_t next48 =
-                    pointwiseHeight(op, cx * h48 + k * step48, cy * h48 + l * step48, old48);
-                const std::int64_t linear48 = to48 * baseHeightScaled(delta, d, k, l, kGridSteps);
-                if (absI64(next48 - old48 - linear48) > tol * kFineScale)
-                    return true;
-            }
-        return false;
-    };
-
     // 2. judge every cell meeting the footprint; keep one more ring for border enforcement
     CellRect er{
         std::max(0, cr.x0 - 1), std::max(0, cr.y0 - 1), std::min(spec_.cellsX() - 1, cr.x1 + 1),
@@ -242,7 +202,7 @@ Result<OpEffect> Terrain::apply(const DeformOp& op) {
             if (cell.has) {
                 transform(cell.patch, cx, cy, co, cn);
                 cell.has = patchNeeded(cell.patch, cn, d, tol);
-            } else if (baseCellNeedsPatch(cx, cy, co, cn, d)) {
+            } else if (baseCellNeedsPatch(op, cx, cy, co, cn, h, tol)) {
                 cell.patch = patchFromBase(co, d);
                 transform(cell.patch, cx, cy, co, cn);
                 cell.has = true;

@@ -50,9 +50,9 @@ Result<TileRecord> decodeTile(std::span<const std::uint8_t> bytes, const WorldSp
     TileRecord rec;
     rec.tile = static_cast<std::int32_t>(ty) * spec.tilesX() + static_cast<std::int32_t>(tx);
     rec.samples.resize(kTileVertices * kTileVertices);
-    for (std::int32_t& v : rec.samples) {
-        if (!r.i32(v))
-            return makeError(ErrorCode::kTruncated, "tile record truncated in its samples");
+    if (!r.i32s(rec.samples.data(), rec.samples.size()))
+        return makeError(ErrorCode::kTruncated, "tile record truncated in its samples");
+    for (std::int32_t v : rec.samples) {
         if (v > kMaxHeightQuanta || v < -kMaxHeightQuanta)
             return makeError(
                 ErrorCode::kOutOfRange,
@@ -178,7 +178,8 @@ Result<DecodedSnapshot> decodeSnapshot(std::span<const std::uint8_t> bytes) {
     if (!terrain)
         return terrain.error();
     for (TileRecord& rec : records)
-        terrain->replaceTile(rec.tile, rec.samples, std::move(rec.patches));
+        terrain->loadTile(rec.tile, rec.samples, std::move(rec.patches));
+    terrain->rehashAll();
     if (auto status = terrain->checkInvariants(); !status)
         return status.error();
     if (terrain->worldHash() != world_hash)

@@ -5,6 +5,8 @@
 #include <xxhash.h>
 
 #include <algorithm>
+#include <bit>
+#include <cstring>
 #include <string>
 
 namespace terrain {
@@ -92,9 +94,24 @@ void Terrain::appendTileBytes(std::int32_t tile, std::vector<std::uint8_t>& out)
     const std::int32_t ty = tile / spec_.tilesX();
     detail::putU32(out, static_cast<std::uint32_t>(tx));
     detail::putU32(out, static_cast<std::uint32_t>(ty));
-    for (std::int32_t y = 0; y < kTileVertices; ++y)
-        for (std::int32_t x = 0; x < kTileVertices; ++x)
-            detail::putI32(out, sample(tx * kTileCells + x, ty * kTileCells + y));
+    // samples: sized once and written row by row (a plain copy on little-endian hosts, whose
+    // memory layout is the canonical one)
+    std::size_t at = out.size();
+    out.resize(at + kTileVertices * kTileVertices * sizeof(std::int32_t));
+    for (std::int32_t y = 0; y < kTileVertices; ++y) {
+        const std::int32_t* row = &samples_
+                                      [static_cast<std::size_t>(ty * kTileCells + y) *
+                                           static_cast<std::size_t>(padded_width_) +
+                                       static_cast<std::size_t>(tx * kTileCells)];
+        if constexpr (std::endian::native == std::endian::little) {
+            std::memcpy(out.data() + at, row, kTileVertices * sizeof(std::int32_t));
+            at += kTileVertices * sizeof(std::int32_t);
+        } else {
+            for (std::int32_t x = 0; x < kTileVertices; ++x)
+                for (int b = 0; b < 32; b += 8)
+                    out[at++] = static_cast<std::uint8_t>(static_cast<std::uint32_t>(row[x]) >> b);
+        }
+    }
     const auto& patches = tiles_[static_cast<std::size_t>(tile)].patches;
     detail::putU32(out, static_cast<std::uint32_t>(patches.size()));
     for (const PatchEntry& e : patches) {
@@ -158,7 +175,7 @@ MemoryUsage Terrain::memoryUsage() const {
     return m;
 }
 
-void Terrain::replaceTile(
+void Terrain::loadTile(
     std::int32_t tile, std::span<const std::int32_t> samples65, std::vector<PatchEntry> patches) {
     const std::int32_t tx = tile % spec_.tilesX();
     const std::int32_t ty = tile / spec_.tilesX();
@@ -171,16 +188,39 @@ void Terrain::replaceTile(
     patch_count_ -= slot.size();
     slot = std::move(patches);
     patch_count_ += slot.size();
-    for (PatchEntry& e : slot) {
-        const std::int32_t cx = tx * kTileCells + e.cell % kTileCells;
-        const std::int32_t cy = ty * kTileCells + e.cell / kTileCells;
-        updateBounds(e.patch, corners(cx, cy));
+}
+
+void Terrain::rehashAll() {
+    for (std::int32_t tile = 0; tile < spec_.tileCount(); ++tile) {
+        const std::int32_t tx = tile % spec_.tilesX();
+        const std::int32_t ty = tile / spec_.tilesX();
+        for (PatchEntry& e : tiles_[static_cast<std::size_t>(tile)].patches)
+            updateBounds(
+                e.patch,
+                corners(
+                    tx * kTileCells + e.cell % kTileCells, ty * kTileCells + e.cell / kTileCells));
+        rehashTile(tile);
     }
-    // edge vertices are shared: neighbouring tiles' bytes may have changed too
+    rehashWorld();
+}
+
+void Terrain::replaceTile(
+    std::int32_t tile, std::span<const std::int32_t> samples65, std::vector<PatchEntry> patches) {
+    loadTile(tile, samples65, std::move(patches));
+    const std::int32_t tx = tile % spec_.tilesX();
+    const std::int32_t ty = tile / spec_.tilesX();
+    // edge vertices are shared: neighbouring tiles' bytes and patch bounds may have changed too
     for (std::int32_t ny = std::max(0, ty - 1); ny <= std::min(spec_.tilesY() - 1, ty + 1); ++ny)
         for (std::int32_t nx = std::max(0, tx - 1); nx <= std::min(spec_.tilesX() - 1, tx + 1);
-             ++nx)
-            rehashTile(ny * spec_.tilesX() + nx);
+             ++nx) {
+            const std::int32_t n = ny * spec_.tilesX() + nx;
+            for (PatchEntry& e : tiles_[static_cast<std::size_t>(n)].patches)
+                updateBounds(
+                    e.patch, corners(
+                                 nx * kTileCells + e.cell % kTileCells,
+                                 ny * kTileCells + e.cell / kTileCells));
+            rehashTile(n);
+        }
     rehashWorld();
 }
 

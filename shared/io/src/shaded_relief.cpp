@@ -77,7 +77,7 @@ RgbImage renderShadedRelief(const Terrain& terrain, const ReliefOptions& o) {
                 const auto cx = std::min(static_cast<std::int32_t>(x / h), spec.cellsX() - 1);
                 const auto cy = std::min(static_cast<std::int32_t>(y / h), spec.cellsY() - 1);
                 if (terrain.findPatch(cx, cy) != nullptr)
-                    c = {c.r * 0.5 + 0.5, c.g * 0.5, c.b * 0.5};
+                    c = {c.r * 0.75 + 0.25, c.g * 0.8, c.b * 0.8}; // a light red wash
             }
             auto* out = &img.rgb
                              [(static_cast<std::size_t>(py) * static_cast<std::size_t>(img.width) +

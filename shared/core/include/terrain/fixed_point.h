@@ -51,6 +51,10 @@ constexpr std::int32_t clampHeight(std::int64_t q) {
     return static_cast<std::int32_t>(q);
 }
 
+/// a * b <= c * d for non-negative operands, exact for any uint64 values (128-bit products built
+/// from 32-bit halves, so it needs no compiler extension).
+bool productLessEqual(std::uint64_t a, std::uint64_t b, std::uint64_t c, std::uint64_t d);
+
 /// floor(sqrt(n)), exact for all n < 2^62.
 std::uint64_t isqrt(std::uint64_t n);
 

@@ -52,6 +52,8 @@ struct MemoryUsage {
 
 inline constexpr std::size_t kBytesPerPatch = sizeof(PatchEntry);
 
+struct DecodedSnapshot; // snapshot.h
+
 class Terrain {
   public:
     /// Builds a flat-patchless terrain from `samples` (width * height, row-major, quanta).
@@ -119,6 +121,14 @@ class Terrain {
     };
 
     Terrain() = default;
+
+    friend Result<DecodedSnapshot> decodeSnapshot(std::span<const std::uint8_t> bytes);
+    /// Writes a tile's samples and patches (bounds recomputed) without rehashing anything.
+    void loadTile(
+        std::int32_t tile,
+        std::span<const std::int32_t> samples65,
+        std::vector<PatchEntry> patches);
+    void rehashAll();
 
     std::int32_t tileOfCell(std::int32_t cx, std::int32_t cy) const {
         return (cy / kTileCells) * spec_.tilesX() + cx / kTileCells;

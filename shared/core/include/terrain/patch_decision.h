@@ -1,0 +1,47 @@
+#pragma once
+
+// When does a cell need a detail patch? Exact integer tests, shared by Terrain::apply and tests.
+// A cell needs one when the base triangles (over its new corners) would be more than the
+// tolerance away from the deformed surface at any point of its 17 x 17 grid.
+// Pure: no state, no I/O.
+
+#include <terrain/base_cell.h>
+#include <terrain/deform_op.h>
+#include <terrain/detail_patch.h>
+
+#include <cstdint>
+
+namespace terrain {
+
+/// Does patch `p` stay farther than `tolerance` quanta from the base triangles over corners `c`
+/// anywhere on its grid? Exact (the grid numerators are compared without rounding).
+bool patchNeeded(const DetailPatch& p, const CellCorners& c, Diagonal d, std::int64_t tolerance);
+
+/// Does a pointwise op (crater, raise, flatten) put detail into base cell (cx, cy) that the
+/// triangles over its new corners `cn` cannot hold? `co` are the old corners, h the spacing.
+/// Smooth ops never do. Runs the exact 289-point check unless curvatureFitsTolerance() says no.
+bool baseCellNeedsPatch(
+    const DeformOp& op,
+    std::int32_t cx,
+    std::int32_t cy,
+    const CellCorners& co,
+    const CellCorners& cn,
+    std::int64_t h,
+    std::int64_t tolerance);
+
+/// The exhaustive part of baseCellNeedsPatch alone (for tests of the prefilter).
+bool baseCellNeedsPatchExhaustive(
+    const DeformOp& op,
+    std::int32_t cx,
+    std::int32_t cy,
+    const CellCorners& co,
+    const CellCorners& cn,
+    std::int64_t h,
+    std::int64_t tolerance);
+
+/// Prefilter: true when the op's bounded curvature over the cell guarantees that linear
+/// interpolation holds it within the tolerance (crater cells crossed by the rim never qualify).
+bool curvatureFitsTolerance(
+    const DeformOp& op, std::int32_t cx, std::int32_t cy, std::int64_t h, std::int64_t tolerance);
+
+} // namespace terrain
