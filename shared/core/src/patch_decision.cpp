@@ -58,13 +58,15 @@ bool curvatureFitsTolerance(
             std::max(absI64(cx * h - op.center_x), absI64((cx + 1) * h - op.center_x));
         const std::int64_t fy =
             std::max(absI64(cy * h - op.center_y), absI64((cy + 1) * h - op.center_y));
-        if (nearestSquared(op, cx, cy, h) <= r * r && fx * fx + fy * fy >= r * r)
+        const bool beyond_rim = nearestSquared(op, cx, cy, h) > r * r;
+        if (!beyond_rim && fx * fx + fy * fy >= r * r)
             return false;
-        // M = 2 (depth + rim) / r^2 in bowl and ejecta; M h^2 / 4 <= room. +1: the rim's rounding
+        // M = 2 (depth + rim) / r^2 in the bowl, 2 rim / r^2 on the ejecta beyond the rim;
+        // M h^2 / 4 <= room. +1: the rim's rounding
         const std::int64_t rim = (std::int64_t{op.height} * op.strength) >> 16;
+        const std::int64_t scale = beyond_rim ? rim + 1 : op.height + rim + 1;
         return productLessEqual(
-            static_cast<std::uint64_t>(op.height + rim + 1), h2,
-            static_cast<std::uint64_t>(2 * r * r), room);
+            static_cast<std::uint64_t>(scale), h2, static_cast<std::uint64_t>(2 * r * r), room);
     }
     if (op.kind == OpKind::kRaise) {
         // M = 8 |height| / r^2 (largest at the edge of the mound)
