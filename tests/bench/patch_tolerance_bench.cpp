@@ -132,7 +132,7 @@ int main(int argc, char** argv) {
                                  1.0 / 8,   1.0 / 4,   1.0 / 2,  1000.0};
     std::vector<Row> rows;
     for (double tol : tolerances)
-        for (double radius : {2.0, 4.0, 8.0})
+        for (double radius : {0.5, 1.0, 2.0, 4.0, 8.0})
             rows.push_back(single(tol, radius));
     for (double tol : tolerances)
         rows.push_back(series(tol));

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 #include <png.h>
+#include <zlib.h>
 
 #include <cmath>
 #include <cstring>
@@ -219,6 +220,57 @@ TEST(PngImport, reads16BitGrayscaleValuesExactly) {
     std::ofstream(junk) << "definitely not a png";
     EXPECT_EQ(importPng(junk, 1.0, 1.0, 0.0, {}).error().code, ErrorCode::kBadFormat);
     fs::remove(junk);
+}
+
+// A 100-byte file that declares a 32768 x 32768 16-bit image must be refused without
+// allocating gigabytes: by the pixel budget, or as truncated when the budget allows it.
+TEST(PngImport, sizeBombsAreRefusedCheaply) {
+    auto chunk = [](std::vector<std::uint8_t>& out, const char* type,
+                    std::vector<std::uint8_t> data) {
+        const auto n = static_cast<std::uint32_t>(data.size());
+        for (int s = 24; s >= 0; s -= 8)
+            out.push_back(static_cast<std::uint8_t>(n >> s));
+        std::vector<std::uint8_t> body(type, type + 4);
+        body.insert(body.end(), data.begin(), data.end());
+        out.insert(out.end(), body.begin(), body.end());
+        const auto crc =
+            static_cast<std::uint32_t>(crc32(0, body.data(), static_cast<uInt>(body.size())));
+        for (int s = 24; s >= 0; s -= 8)
+            out.push_back(static_cast<std::uint8_t>(crc >> s));
+    };
+    std::vector<std::uint8_t> png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    chunk(png, "IHDR", {0, 0, 0x80, 0, 0, 0, 0x80, 0, 16, 0, 0, 0, 0});
+    // a valid zlib stream of a few zero bytes: one filter byte and the start of a row
+    std::vector<std::uint8_t> raw(64, 0);
+    std::vector<std::uint8_t> z(128);
+    uLongf zlen = z.size();
+    ASSERT_EQ(compress(z.data(), &zlen, raw.data(), raw.size()), Z_OK);
+    z.resize(zlen);
+    chunk(png, "IDAT", z);
+    chunk(png, "IEND", {});
+    const fs::path path = fs::temp_directory_path() / "terrain_png_bomb.png";
+    std::ofstream(path, std::ios::binary)
+        .write(reinterpret_cast<const char*>(png.data()), png.size());
+    auto budget = readGrayPng(path);
+    ASSERT_FALSE(budget.ok());
+    EXPECT_EQ(budget.error().code, ErrorCode::kOutOfRange);
+    EXPECT_NE(budget.error().message.find("budget"), std::string::npos);
+    auto truncated = readGrayPng(path, std::uint64_t{1} << 31);
+    ASSERT_FALSE(truncated.ok());
+    EXPECT_EQ(truncated.error().code, ErrorCode::kBadFormat) << truncated.error().message;
+    fs::remove(path);
+}
+
+TEST(DemImport, gridsBeyondTheSampleBudgetAreRefusedBeforeReading) {
+    DemImportOptions o;
+    o.max_samples = 100;
+    auto dem = importDemFromMemory(kSidecar3x2, int16Raw({1, 2, 3, 4, 5, 6}), o);
+    ASSERT_TRUE(dem.ok());
+    o.max_samples = 5;
+    auto refused = importDemFromMemory(kSidecar3x2, int16Raw({1, 2, 3, 4, 5, 6}), o);
+    ASSERT_FALSE(refused.ok());
+    EXPECT_EQ(refused.error().code, ErrorCode::kOutOfRange);
+    EXPECT_NE(refused.error().message.find("budget"), std::string::npos);
 }
 
 TEST(ShadedRelief, writesAnImageWhoseShadingFollowsTheSlope) {

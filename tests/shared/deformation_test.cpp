@@ -222,3 +222,102 @@ TEST(PatchDecision, curvaturePrefilterNeverSkipsACellThatNeedsAPatch) {
 
 } // namespace
 } // namespace terrain
+
+namespace terrain {
+namespace {
+
+// Regression: on a valid 10 km grid at 4096 units per metre, a maximum-radius crater used to
+// overflow the squared distance at far Greville points and write a -1.8 km control.
+TEST(Deformation, largeSpacingAndMaximumRadiusStayInRange) {
+    WorldSpec s;
+    s.width = s.height = 257;
+    s.units_per_metre = 4096;
+    s.spacing = 4096 * 10000;
+    s.patch_tolerance = 128;
+    ASSERT_TRUE(s.validate().ok());
+    Terrain t = std::move(*Terrain::create(s, std::vector<std::int32_t>(257 * 257, 0)));
+    const std::int64_t h = s.spacing;
+    DeformOp op;
+    op.kind = OpKind::kCrater;
+    op.radius = radiusRange(s).max;
+    op.height = 100 * 4096;
+    op.strength = kUnitStrength / 4;
+    op.center_x = 2 * h - 2 * std::int64_t{op.radius} + 1;
+    op.center_y = h + 1;
+    ASSERT_TRUE(t.apply(op).ok());
+    const std::int64_t lo = -std::int64_t{op.height} - 4096;
+    const std::int64_t hi = op.height / 4 + 4096;
+    for (std::int32_t tile = 0; tile < s.tileCount(); ++tile)
+        for (const PatchEntry& e : t.tilePatches(tile))
+            for (std::int32_t c : e.patch.control) {
+                EXPECT_GE(c, lo * kControlScale);
+                EXPECT_LE(c, hi * kControlScale);
+            }
+    for (std::int32_t v : t.paddedSamples()) {
+        EXPECT_GE(v, lo);
+        EXPECT_LE(v, hi);
+    }
+    EXPECT_TRUE(t.checkInvariants().ok());
+}
+
+TEST(WorldSpecRules, spacingThatWouldEmptyTheRadiusRangeIsRefused) {
+    WorldSpec s;
+    s.width = s.height = 65;
+    s.units_per_metre = 65536;
+    s.spacing = 300'000'000; // 4.6 km, but beyond 2^26 quanta
+    const Status st = s.validate();
+    ASSERT_FALSE(st.ok());
+    EXPECT_EQ(st.error().code, ErrorCode::kOutOfRange);
+    EXPECT_NE(st.error().message.find("spacing"), std::string::npos);
+    s.spacing = 1 << 26;
+    ASSERT_TRUE(s.validate().ok());
+    const RadiusRange rr = radiusRange(s);
+    EXPECT_LE(rr.min, rr.max);
+}
+
+// Regression: 16.16 profile errors grow with depth; the prefilter's slack must follow.
+TEST(PatchDecision, prefilterHoldsForDeepWideCraters) {
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    // a 0.4 m tolerance: deep craters carry a large fixed-point slack, so at the default 3 cm the
+    // prefilter (correctly) never skips them and the exhaustive check runs
+    WorldSpec flat_spec;
+    flat_spec.width = flat_spec.height = 400;
+    flat_spec.patch_tolerance = 400;
+    const Terrain t =
+        std::move(*Terrain::create(flat_spec, std::vector<std::int32_t>(400 * 400, 10 * 1024)));
+    const WorldSpec& spec = t.spec();
+    const std::int64_t h = spec.spacing;
+    int skipped = 0;
+    for (int n = 0; n < 40; ++n) {
+        OpRequest r{OpKind::kCrater,     150 + unit(rng) * 100, 150 + unit(rng) * 100,
+                    64 + unit(rng) * 64, 200 + unit(rng) * 800, unit(rng) * 0.5};
+        const DeformOp op = *quantizeOp(r, spec);
+        for (int k = 0; k < 60; ++k) {
+            const std::int32_t cx = static_cast<std::int32_t>(
+                op.center_x / h + (unit(rng) - 0.5) * 3.8 * op.radius / h);
+            const std::int32_t cy = static_cast<std::int32_t>(
+                op.center_y / h + (unit(rng) - 0.5) * 3.8 * op.radius / h);
+            if (cx < 0 || cy < 0 || cx >= spec.cellsX() || cy >= spec.cellsY())
+                continue;
+            const CellCorners co = t.corners(cx, cy);
+            auto moved = [&](std::int32_t x, std::int32_t y, std::int32_t z) {
+                return clampHeight(roundDiv(
+                    pointwiseHeight(op, x * h * 48, y * h * 48, std::int64_t{z} * 48), 48));
+            };
+            const CellCorners cn{
+                moved(cx, cy, co.h00), moved(cx + 1, cy, co.h10), moved(cx, cy + 1, co.h01),
+                moved(cx + 1, cy + 1, co.h11)};
+            if (curvatureFitsTolerance(op, cx, cy, h, spec.patch_tolerance)) {
+                ++skipped;
+                EXPECT_FALSE(
+                    baseCellNeedsPatchExhaustive(op, cx, cy, co, cn, h, spec.patch_tolerance))
+                    << describe(op, spec) << " cell " << cx << "," << cy;
+            }
+        }
+    }
+    EXPECT_GT(skipped, 100);
+}
+
+} // namespace
+} // namespace terrain

@@ -3,6 +3,7 @@
 #include <terrain/snapshot.h>
 
 #include <gtest/gtest.h>
+#include <xxhash.h>
 
 namespace terrain {
 namespace {
@@ -58,11 +59,29 @@ TEST(Snapshot, rejectsEachKindOfBadInputWithTheRule) {
     auto extra = good;
     extra.push_back(0);
     EXPECT_EQ(decodeSnapshot(extra).error().code, ErrorCode::kBadFormat);
-    // the stored world hash altered: the state is well formed but not the one that was sent
-    auto flipped = mutate(good.size() - 3, static_cast<std::uint8_t>(good[good.size() - 3] ^ 1));
+    // the sequence number is covered by the checksum, not by the world hash
+    auto seq = mutate(4 + 4 + 20, static_cast<std::uint8_t>(good[28] ^ 1));
+    ASSERT_FALSE(seq.ok());
+    EXPECT_EQ(seq.error().code, ErrorCode::kHashMismatch);
+    EXPECT_NE(seq.error().message.find("checksum"), std::string::npos);
+    // a tile count the bytes cannot hold is refused before anything is reserved for it
+    auto count = good;
+    count.resize(48);
+    EXPECT_EQ(decodeSnapshot(count).error().code, ErrorCode::kTruncated);
+    // the stored world hash altered: caught by the checksum ...
+    auto flipped = mutate(good.size() - 11, static_cast<std::uint8_t>(good[good.size() - 11] ^ 1));
     ASSERT_FALSE(flipped.ok());
     EXPECT_EQ(flipped.error().code, ErrorCode::kHashMismatch);
-    EXPECT_NE(flipped.error().message.find("hash"), std::string::npos);
+    // ... and, with the checksum recomputed, by the world hash of the decoded state
+    auto forged = good;
+    forged[good.size() - 11] ^= 1;
+    const std::uint64_t sum = XXH3_64bits(forged.data(), forged.size() - 8);
+    for (int b = 0; b < 8; ++b)
+        forged[forged.size() - 8 + b] = static_cast<std::uint8_t>(sum >> (8 * b));
+    auto wrong_world = decodeSnapshot(forged);
+    ASSERT_FALSE(wrong_world.ok());
+    EXPECT_EQ(wrong_world.error().code, ErrorCode::kHashMismatch);
+    EXPECT_NE(wrong_world.error().message.find("world hash"), std::string::npos);
     // any single sample bit flipped is caught, by the patch invariants or by the hash
     const std::size_t first_sample = 4 + 4 + 20 + 8 + 4 + 4 + 8;
     for (std::size_t at = first_sample; at < first_sample + 65 * 65 * 4; at += 401)

@@ -5,6 +5,7 @@
 #include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <random>
 
 namespace terrain {
@@ -132,6 +133,24 @@ TEST(SurfaceQuery, heightIsContinuousAcrossCells) {
         }
     // outside positions clamp to the edge
     EXPECT_EQ(surfaceHeight(t, -5, 10), surfaceHeight(t, 0, 10));
+}
+
+// Regressions: bisection used to spin forever far from the origin or with a huge direction; NaN
+// positions used to index the tile array with a negative number.
+TEST(SurfaceQuery, farOriginsHugeDirectionsAndNaNAreHandled) {
+    Terrain t = testing::makeFlat(65, 65);
+    ASSERT_TRUE(t.apply(*quantizeOp({OpKind::kCrater, 32.5, 32.5, 3.0, 1.0, 0.25}, t.spec())).ok());
+    ASSERT_NE(t.findPatch(32, 32), nullptr);
+    const auto far = castRay(t, {32.4, 32.5, 1e7}, {0, 0, -1}, 1e7 + 10);
+    ASSERT_TRUE(far.has_value());
+    EXPECT_NEAR(far->point.z, surfaceHeight(t, 32.4, 32.5), 1e-6 * 1e7 * 1e-3);
+    EXPECT_FALSE(castRay(t, {32.4, 32.5, 10}, {0, 0, -1e200}, 1.0).has_value());
+    EXPECT_FALSE(castRay(t, {1e300, 32.5, 10}, {-1, 0, -1e-300}, 1e300).has_value());
+    EXPECT_TRUE(std::isnan(surfaceHeight(t, std::nan(""), 1.0)));
+    EXPECT_TRUE(std::isnan(surfaceNormal(t, 3.0, std::nan("")).z));
+    EXPECT_EQ(
+        surfaceHeight(t, -std::numeric_limits<double>::infinity(), 5.0),
+        surfaceHeight(t, 0.0, 5.0));
 }
 
 } // namespace

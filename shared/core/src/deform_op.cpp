@@ -14,9 +14,13 @@ std::int64_t radiusRatio(std::int64_t r2, std::int64_t radius48) {
     return static_cast<std::int64_t>(isqrt(static_cast<std::uint64_t>(r2)) << 16) / radius48;
 }
 
+// Squared distance in (1/48 quanta)^2. An axis offset beyond twice the radius lies outside every
+// footprint, so offsets are clamped there first: the result then stays below 2^61 whatever the
+// map spacing (radius <= 2^23 quanta).
 std::int64_t squaredDistance(const DeformOp& op, std::int64_t x48, std::int64_t y48) {
-    const std::int64_t dx = x48 - op.center_x * kFineScale;
-    const std::int64_t dy = y48 - op.center_y * kFineScale;
+    const std::int64_t cap = 2 * std::int64_t{op.radius} * kFineScale + 1;
+    const std::int64_t dx = std::min(absI64(x48 - op.center_x * kFineScale), cap);
+    const std::int64_t dy = std::min(absI64(y48 - op.center_y * kFineScale), cap);
     return dx * dx + dy * dy;
 }
 

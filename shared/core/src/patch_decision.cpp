@@ -41,16 +41,19 @@ bool patchNeeded(const DetailPatch& p, const CellCorners& c, Diagonal d, std::in
 
 bool curvatureFitsTolerance(
     const DeformOp& op, std::int32_t cx, std::int32_t cy, std::int64_t h, std::int64_t tolerance) {
-    // 2 quanta for the fixed-point profile and the rounding of the corner samples
-    constexpr std::int64_t kSlack = 2;
-    if (tolerance <= kSlack)
+    // slack for the fixed-point profile (16.16 radius ratio: about 3 (|height| + rim) / 2^16 at a
+    // point, twice that through the corners' interpolation; 16 leaves a margin) and the rounding of
+    // the corner samples
+    const std::int64_t rim_bound = absI64((std::int64_t{op.height} * op.strength) >> 16);
+    const std::int64_t slack = 2 + ceilDiv(16 * (absI64(op.height) + rim_bound), 65536);
+    if (tolerance <= slack)
         return false;
     // |change - linear interpolation of change| <= 2 max |change|: a tolerance above that is
     // never exceeded (crater: -depth .. +rim; raise: 0 .. height)
-    if (op.kind != OpKind::kFlatten && 2 * (absI64(op.height) + 1) + kSlack <= tolerance)
+    if (op.kind != OpKind::kFlatten && 2 * (absI64(op.height) + 1) + slack <= tolerance)
         return true;
     const std::int64_t r = op.radius;
-    const auto room = static_cast<std::uint64_t>(tolerance - kSlack);
+    const auto room = static_cast<std::uint64_t>(tolerance - slack);
     const auto h2 = static_cast<std::uint64_t>(h * h);
     if (op.kind == OpKind::kCrater) {
         // a cell that the rim circle crosses holds the crease: never skipped

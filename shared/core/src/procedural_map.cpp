@@ -58,6 +58,12 @@ Result<Terrain> makeProceduralMap(const ProceduralMapOptions& o) {
     if (o.octaves < 1 || o.octaves > 16)
         return makeError(ErrorCode::kOutOfRange, "octaves must be 1..16");
 
+    // range-check before the integer casts below
+    if (o.spacing_metres > 10000.0 || o.patch_tolerance_metres > 100000.0 ||
+        o.wavelength_metres > 1e9 || o.spacing_metres / o.wavelength_metres > 1e3)
+        return makeError(
+            ErrorCode::kOutOfRange,
+            "procedural spacing must be at most 10 km and below 1000 wavelengths");
     WorldSpec spec;
     spec.width = o.width;
     spec.height = o.height;

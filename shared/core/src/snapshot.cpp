@@ -2,6 +2,8 @@
 
 #include <terrain/snapshot.h>
 
+#include <xxhash.h>
+
 #include <string>
 
 namespace terrain {
@@ -32,6 +34,8 @@ std::vector<std::uint8_t> encodeSnapshot(const Terrain& terrain, std::uint64_t s
             out[at + static_cast<std::size_t>(b)] = static_cast<std::uint8_t>(length >> (8 * b));
     }
     detail::putU64(out, terrain.worldHash());
+    // the checksum covers what the world hash does not: the header and the sequence number
+    detail::putU64(out, XXH3_64bits(out.data(), out.size()));
     return out;
 }
 
@@ -121,6 +125,11 @@ Result<DecodedSnapshot> decodeSnapshot(std::span<const std::uint8_t> bytes) {
             ErrorCode::kSizeMismatch, "tile count " + std::to_string(tile_count) + " != " +
                                           std::to_string(spec.tileCount()) + " for the map size");
 
+    // every record holds at least its header, samples and patch count: refuse a count the bytes
+    // cannot hold before reserving anything for it
+    constexpr std::size_t kMinRecord = 4 + 8 + kTileVertices * kTileVertices * 4 + 4;
+    if (r.remaining() / kMinRecord < tile_count)
+        return truncated("the tile records");
     std::vector<TileRecord> records;
     records.reserve(tile_count);
     for (std::uint32_t i = 0; i < tile_count; ++i) {
@@ -140,8 +149,15 @@ Result<DecodedSnapshot> decodeSnapshot(std::span<const std::uint8_t> bytes) {
     std::uint64_t world_hash = 0;
     if (!r.u64(world_hash))
         return truncated("the world hash");
+    const std::size_t checked = r.position();
+    std::uint64_t checksum = 0;
+    if (!r.u64(checksum))
+        return truncated("the checksum");
     if (r.remaining() != 0)
         return makeError(ErrorCode::kBadFormat, "snapshot has trailing bytes");
+    if (checksum != XXH3_64bits(bytes.data(), checked))
+        return makeError(
+            ErrorCode::kHashMismatch, "snapshot checksum differs: the bytes are corrupt");
 
     // base samples of the real map from the records; a vertex on a tile edge is stored by every
     // tile that shares it, and all copies must agree

@@ -1,5 +1,7 @@
 // Surface queries. Ray traversal: Amanatides & Woo, "A Fast Voxel Traversal Algorithm for Ray
 // Tracing" (1987), in 2D over cells; triangle test: Moller & Trumbore (1997).
+// Every loop is bounded: the DDA moves one cell per step and stops at the map edge, the patch
+// search takes a fixed number of samples and halvings.
 
 #include <terrain/base_cell.h>
 #include <terrain/detail_patch.h>
@@ -80,11 +82,15 @@ std::optional<double> rayTriangle(
 } // namespace
 
 double surfaceHeight(const Terrain& t, double x, double y) {
+    if (std::isnan(x) || std::isnan(y))
+        return std::numeric_limits<double>::quiet_NaN();
     const CellPoint p = locate(t.spec(), x, y);
     return cellHeight(t, p.cx, p.cy, p.u, p.v) * t.spec().metresPerUnit();
 }
 
 glm::dvec3 surfaceNormal(const Terrain& t, double x, double y) {
+    if (std::isnan(x) || std::isnan(y))
+        return glm::dvec3(std::numeric_limits<double>::quiet_NaN());
     const CellPoint p = locate(t.spec(), x, y);
     return cellNormal(t, p.cx, p.cy, p.u, p.v);
 }
@@ -94,8 +100,11 @@ std::optional<RayHit> castRay(
     const WorldSpec& spec = t.spec();
     if (!std::isfinite(origin.x) || !std::isfinite(origin.y) || !std::isfinite(origin.z) ||
         !std::isfinite(direction.x) || !std::isfinite(direction.y) || !std::isfinite(direction.z) ||
-        !std::isfinite(max_distance) || max_distance <= 0.0 ||
-        glm::dot(direction, direction) == 0.0)
+        !std::isfinite(max_distance) || max_distance <= 0.0)
+        return std::nullopt;
+    // |direction|^2 must be finite and non-zero, or distances and the bisection degenerate
+    const double length2 = glm::dot(direction, direction);
+    if (!(length2 > 0.0) || !std::isfinite(length2))
         return std::nullopt;
     const double h = spec.spacingMetres();
     const double q = spec.metresPerUnit();
@@ -125,10 +134,13 @@ std::optional<RayHit> castRay(
 
     auto at = [&](double s) { return origin + s * direction; };
     const glm::dvec3 entry = at(s0);
-    std::int32_t cx =
-        std::clamp(static_cast<std::int32_t>(std::floor(entry.x / h)), 0, spec.cellsX() - 1);
-    std::int32_t cy =
-        std::clamp(static_cast<std::int32_t>(std::floor(entry.y / h)), 0, spec.cellsY() - 1);
+    // clamp in double before the cast: a far origin must not overflow the int conversion
+    auto cellIndex = [](double g, std::int32_t cells) {
+        return static_cast<std::int32_t>(
+            std::clamp(std::floor(g), 0.0, static_cast<double>(cells - 1)));
+    };
+    std::int32_t cx = cellIndex(entry.x / h, spec.cellsX());
+    std::int32_t cy = cellIndex(entry.y / h, spec.cellsY());
     const std::int32_t step_x = direction.x > 0 ? 1 : -1;
     const std::int32_t step_y = direction.y > 0 ? 1 : -1;
     const double inf = std::numeric_limits<double>::infinity();
@@ -218,9 +230,12 @@ std::optional<RayHit> castRay(
                             // bisect the bracket [a, b]
                             double lo_s = a;
                             double hi_s = b;
-                            const double eps = 1e-9 * h / std::sqrt(glm::dot(direction, direction));
-                            while (hi_s - lo_s > eps) {
+                            // a fixed count, not a width test: far from the origin, adjacent
+                            // doubles can be wider than any tolerance
+                            for (int i = 0; i < 64; ++i) {
                                 const double mid = 0.5 * (lo_s + hi_s);
+                                if (mid <= lo_s || mid >= hi_s)
+                                    break;
                                 (f(mid) > 0.0 ? lo_s : hi_s) = mid;
                             }
                             hit = hi_s;

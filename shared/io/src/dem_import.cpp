@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <new>
 #include <vector>
 
 namespace terrain::io {
@@ -166,6 +167,11 @@ Result<ImportedDem> importDemFromMemory(
 
     const std::size_t count =
         static_cast<std::size_t>(info.width) * static_cast<std::size_t>(info.height);
+    if (count > options.max_samples)
+        return makeError(
+            ErrorCode::kOutOfRange, "DEM has " + std::to_string(count) +
+                                        " samples, more than the import budget of " +
+                                        std::to_string(options.max_samples));
     if (raw.size() != count * sample_bytes)
         return makeError(
             ErrorCode::kSizeMismatch, "DEM raw file has " + std::to_string(raw.size()) +
@@ -208,7 +214,8 @@ Result<ImportedDem> importDemFromMemory(
     return buildTerrain(std::move(info), metres, options);
 }
 
-Result<ImportedDem> importDem(const std::filesystem::path& path, const DemImportOptions& options) {
+Result<ImportedDem>
+importDem(const std::filesystem::path& path, const DemImportOptions& options) try {
     std::filesystem::path json_path = path;
     if (std::filesystem::is_directory(path))
         json_path = path / (path.filename().string() + ".json");
@@ -230,6 +237,8 @@ Result<ImportedDem> importDem(const std::filesystem::path& path, const DemImport
         return raw.error();
     const std::string_view view(reinterpret_cast<const char*>(text->data()), text->size());
     return importDemFromMemory(view, *raw, options);
+} catch (const std::bad_alloc&) {
+    return makeError(ErrorCode::kOutOfRange, "not enough memory to import " + path.string());
 }
 
 Result<ImportedDem> importPng(
@@ -241,7 +250,7 @@ Result<ImportedDem> importPng(
     if (!std::isfinite(vertical_scale) || vertical_scale <= 0.0 || !std::isfinite(offset_metres))
         return makeError(
             ErrorCode::kOutOfRange, "PNG vertical scale must be positive, offset finite");
-    auto image = readGrayPng(path);
+    auto image = readGrayPng(path, options.max_samples);
     if (!image)
         return image.error();
     DemInfo info;

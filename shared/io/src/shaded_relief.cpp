@@ -44,7 +44,12 @@ RgbImage renderShadedRelief(const Terrain& terrain, const ReliefOptions& o) {
         x1 = spec.extentX();
         y1 = spec.extentY();
     }
-    const int ppc = std::max(1, o.pixels_per_cell);
+    // the region is clipped to the map, and pixels per cell to 64, so the image stays bounded
+    x0 = std::clamp(x0, 0.0, spec.extentX());
+    y0 = std::clamp(y0, 0.0, spec.extentY());
+    x1 = std::clamp(x1, x0, spec.extentX());
+    y1 = std::clamp(y1, y0, spec.extentY());
+    const int ppc = std::clamp(o.pixels_per_cell, 1, 64);
     const double step = h / ppc;
     RgbImage img;
     img.width = static_cast<std::int32_t>(std::floor((x1 - x0) / step)) + 1;
@@ -66,8 +71,8 @@ RgbImage renderShadedRelief(const Terrain& terrain, const ReliefOptions& o) {
 
     for (std::int32_t py = 0; py < img.height; ++py)
         for (std::int32_t px = 0; px < img.width; ++px) {
-            const double x = std::min(x0 + px * step, spec.extentX());
-            const double y = std::min(y0 + py * step, spec.extentY());
+            const double x = std::clamp(x0 + px * step, 0.0, spec.extentX());
+            const double y = std::clamp(y0 + py * step, 0.0, spec.extentY());
             const double z = surfaceHeight(terrain, x, y);
             glm::dvec3 n = surfaceNormal(terrain, x, y);
             n = glm::normalize(glm::dvec3(n.x * o.exaggeration, n.y * o.exaggeration, n.z));

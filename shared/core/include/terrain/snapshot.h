@@ -7,7 +7,8 @@
 //   i32 width, height, spacing, units_per_metre, patch_tolerance
 //   u64 sequence            (opaque to the core; the server's op sequence number)
 //   u32 tile_count, then per tile: u32 byte length + Terrain::appendTileBytes() record
-//   u64 world hash          (checked on decode)
+//   u64 world hash          (checked on decode against the decoded state)
+//   u64 checksum            XXH3-64 of every byte before it (covers header and sequence)
 // Decoding treats every byte as untrusted: it never asserts, and every refusal names the rule.
 
 #include <terrain/result.h>
@@ -30,7 +31,8 @@ struct DecodedSnapshot {
 
 /// Errors: kTruncated, kBadFormat (magic, trailing bytes, tile order), kUnsupported (version),
 /// the spec's own rules, kOutOfRange (samples, controls, cells), kInvariantBroken (patch
-/// corners or borders), kHashMismatch (world hash differs from the recomputed one).
+/// corners or borders), kHashMismatch (world hash differs from the recomputed one, or the
+/// checksum differs).
 Result<DecodedSnapshot> decodeSnapshot(std::span<const std::uint8_t> bytes);
 
 /// One tile's decoded record.

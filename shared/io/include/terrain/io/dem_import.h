@@ -28,6 +28,8 @@ struct DemImportOptions {
     /// leaves decimetres between grid triangles and the true surface.
     std::optional<double> patch_tolerance_metres;
     std::int32_t units_per_metre = kDefaultUnitsPerMetre;
+    /// Largest grid an import accepts (width * height): bounds memory before anything is read.
+    std::uint64_t max_samples = std::uint64_t{8192} * 8192;
 };
 
 struct DemInfo {

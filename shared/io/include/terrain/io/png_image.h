@@ -23,8 +23,16 @@ struct RgbImage {
     std::vector<std::uint8_t> rgb; ///< row-major, 3 bytes per pixel
 };
 
-/// Errors: kIo (cannot open), kBadFormat (not a PNG, corrupt), kUnsupported (not grayscale).
-Result<GrayImage> readGrayPng(const std::filesystem::path& path);
+/// Default pixel budget of an import: 8192 x 8192 (a 16-bit image of that size needs about
+/// 0.8 GB on its way to a terrain).
+inline constexpr std::uint64_t kDefaultMaxPixels = std::uint64_t{8192} * 8192;
+
+/// Reads rows one at a time, so a file that declares a huge size but holds little data fails
+/// before much is allocated. Errors: kIo (cannot open), kBadFormat (not a PNG, corrupt or
+/// truncated), kUnsupported (not 8/16-bit grayscale, interlaced), kOutOfRange (more pixels than
+/// max_pixels, or not enough memory).
+Result<GrayImage>
+readGrayPng(const std::filesystem::path& path, std::uint64_t max_pixels = kDefaultMaxPixels);
 
 /// Errors: kIo.
 Status writeRgbPng(const std::filesystem::path& path, const RgbImage& image);
