@@ -88,6 +88,20 @@ TEST(DetailPatch, gradientMatchesFiniteDifference) {
         }
 }
 
+TEST(DetailPatch, gridGradientsEqualTheAnalyticGradient) {
+    std::mt19937 rng(8);
+    const CellCorners c = randomCorners(rng, 50000);
+    const DetailPatch p = randomPatch(rng, c, 50000);
+    std::array<Gradient, kPatchGridVertices> grid{};
+    evaluateGridGradients(p, grid);
+    for (int l = 0; l <= 16; ++l)
+        for (int k = 0; k <= 16; ++k) {
+            const Gradient g = patchGradient(p, k / 16.0, l / 16.0);
+            EXPECT_NEAR(grid[l * 17 + k].du, g.du, 1e-9 * (1 + std::abs(g.du)));
+            EXPECT_NEAR(grid[l * 17 + k].dv, g.dv, 1e-9 * (1 + std::abs(g.dv)));
+        }
+}
+
 // The stored bounds must hold against dense sampling of the true surface, not merely against
 // the method's own estimate.
 TEST(DetailPatch, storedBoundsAreTrueBoundsUnderDenseSampling) {

@@ -70,6 +70,11 @@ TEST(Watertight, thousandsOfRandomOpsNeverOpenACrack) {
         if (i % 50 == 49) {
             const Status s = t.checkInvariants();
             ASSERT_TRUE(s.ok()) << "after op " << i << ": " << s.error().message;
+            // incremental hashing: every tile hash equals a recomputation from its bytes
+            for (std::int32_t tile = 0; tile < t.spec().tileCount(); ++tile)
+                ASSERT_EQ(t.tileHash(tile), t.computeTileHash(tile))
+                    << "tile " << tile << " after op " << i;
+            ASSERT_EQ(t.worldHash(), t.computeWorldHash()) << "after op " << i;
         }
         if (i % 500 == 499) {
             borders += testing::expectWatertight(t, static_cast<std::uint32_t>(i));

@@ -200,6 +200,30 @@ void evaluateGrid(const DetailPatch& p, std::array<std::int32_t, kPatchGridVerti
         out[n] = static_cast<std::int32_t>(roundDiv(numerators[n], kGridDenominator));
 }
 
+void evaluateGridGradients(const DetailPatch& p, std::array<Gradient, kPatchGridVertices>& out) {
+    std::array<bspline::Basis, bspline::kGridSamples> basis{};
+    for (int k = 0; k < bspline::kGridSamples; ++k)
+        basis[static_cast<size_t>(k)] =
+            bspline::evaluate(static_cast<double>(k) / bspline::kGridSteps);
+    for (int l = 0; l < bspline::kGridSamples; ++l)
+        for (int k = 0; k < bspline::kGridSamples; ++k) {
+            const bspline::Basis& bu = basis[static_cast<size_t>(k)];
+            const bspline::Basis& bv = basis[static_cast<size_t>(l)];
+            Gradient g;
+            for (int j = 0; j < bspline::kControls; ++j)
+                for (int i = 0; i < bspline::kControls; ++i) {
+                    const double c = p.at(i, j);
+                    g.du += bu.derivative[static_cast<size_t>(i)] *
+                            bv.value[static_cast<size_t>(j)] * c;
+                    g.dv += bu.value[static_cast<size_t>(i)] *
+                            bv.derivative[static_cast<size_t>(j)] * c;
+                }
+            g.du /= kControlScale;
+            g.dv /= kControlScale;
+            out[static_cast<size_t>(l * bspline::kGridSamples + k)] = g;
+        }
+}
+
 void updateBounds(DetailPatch& p, const CellCorners& c) {
     // patch - bilinear: its controls are C - 6 * bilinear(Greville), in 1/36 quanta
     std::int64_t worst36 = 0;

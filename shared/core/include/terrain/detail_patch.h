@@ -114,6 +114,11 @@ void gridNumerators(const DetailPatch& p, std::array<std::int64_t, kPatchGridVer
 /// agree bit for bit along shared edges.
 void evaluateGrid(const DetailPatch& p, std::array<std::int32_t, kPatchGridVertices>& out);
 
+/// Analytic gradient (quanta per unit u, v) at every grid point (k/16, l/16), index l * 17 + k.
+/// The basis derivatives at k/16 are exact dyadic numbers, so these equal patchGradient() there;
+/// a renderer turns them into vertex normals.
+void evaluateGridGradients(const DetailPatch& p, std::array<Gradient, kPatchGridVertices>& out);
+
 /// Recomputes deviation_bound (convex-hull bound on patch - bilinear, plus the bilinear-to-
 /// triangles gap |twist| / 4) and grid_error_bound (second-derivative bound for linear
 /// interpolation on right triangles with legs 1/16, plus half a quantum of rounding).
