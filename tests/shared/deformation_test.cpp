@@ -168,6 +168,18 @@ TEST(Deformation, opsAtMapCornersAndEdgesClipAndStayValid) {
 namespace terrain {
 namespace {
 
+// A base cell's corners after a pointwise op, as Terrain::apply computes them.
+CellCorners cornersAfter(
+    const DeformOp& op, std::int32_t cx, std::int32_t cy, const CellCorners& co, std::int64_t h) {
+    auto moved = [&](std::int32_t x, std::int32_t y, std::int32_t z) {
+        return clampHeight(
+            roundDiv(pointwiseHeight(op, x * h * 48, y * h * 48, std::int64_t{z} * 48), 48));
+    };
+    return {
+        moved(cx, cy, co.h00), moved(cx + 1, cy, co.h10), moved(cx, cy + 1, co.h01),
+        moved(cx + 1, cy + 1, co.h11)};
+}
+
 // The prefilter may only skip cells that the exhaustive 289-point check would also leave
 // without a patch; it must also actually skip cells on a broad crater.
 TEST(PatchDecision, curvaturePrefilterNeverSkipsACellThatNeedsAPatch) {
@@ -200,13 +212,7 @@ TEST(PatchDecision, curvaturePrefilterNeverSkipsACellThatNeedsAPatch) {
             if (cx < 0 || cy < 0 || cx >= spec.cellsX() || cy >= spec.cellsY())
                 continue;
             const CellCorners co = t.corners(cx, cy);
-            auto moved = [&](std::int32_t x, std::int32_t y, std::int32_t z) {
-                return clampHeight(roundDiv(
-                    pointwiseHeight(op, x * h * 48, y * h * 48, std::int64_t{z} * 48), 48));
-            };
-            const CellCorners cn{
-                moved(cx, cy, co.h00), moved(cx + 1, cy, co.h10), moved(cx, cy + 1, co.h01),
-                moved(cx + 1, cy + 1, co.h11)};
+            const CellCorners cn = cornersAfter(op, cx, cy, co, h);
             const bool exhaustive = baseCellNeedsPatchExhaustive(op, cx, cy, co, cn, h, tol);
             needed += exhaustive;
             if (curvatureFitsTolerance(op, cx, cy, h, tol)) {
@@ -301,13 +307,7 @@ TEST(PatchDecision, prefilterHoldsForDeepWideCraters) {
             if (cx < 0 || cy < 0 || cx >= spec.cellsX() || cy >= spec.cellsY())
                 continue;
             const CellCorners co = t.corners(cx, cy);
-            auto moved = [&](std::int32_t x, std::int32_t y, std::int32_t z) {
-                return clampHeight(roundDiv(
-                    pointwiseHeight(op, x * h * 48, y * h * 48, std::int64_t{z} * 48), 48));
-            };
-            const CellCorners cn{
-                moved(cx, cy, co.h00), moved(cx + 1, cy, co.h10), moved(cx, cy + 1, co.h01),
-                moved(cx + 1, cy + 1, co.h11)};
+            const CellCorners cn = cornersAfter(op, cx, cy, co, h);
             if (curvatureFitsTolerance(op, cx, cy, h, spec.patch_tolerance)) {
                 ++skipped;
                 EXPECT_FALSE(
