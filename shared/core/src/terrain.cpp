@@ -190,17 +190,19 @@ void Terrain::loadTile(
     patch_count_ += slot.size();
 }
 
+void Terrain::refreshTile(std::int32_t tile) {
+    const std::int32_t tx = tile % spec_.tilesX();
+    const std::int32_t ty = tile / spec_.tilesX();
+    for (PatchEntry& e : tiles_[static_cast<std::size_t>(tile)].patches)
+        updateBounds(
+            e.patch,
+            corners(tx * kTileCells + e.cell % kTileCells, ty * kTileCells + e.cell / kTileCells));
+    rehashTile(tile);
+}
+
 void Terrain::rehashAll() {
-    for (std::int32_t tile = 0; tile < spec_.tileCount(); ++tile) {
-        const std::int32_t tx = tile % spec_.tilesX();
-        const std::int32_t ty = tile / spec_.tilesX();
-        for (PatchEntry& e : tiles_[static_cast<std::size_t>(tile)].patches)
-            updateBounds(
-                e.patch,
-                corners(
-                    tx * kTileCells + e.cell % kTileCells, ty * kTileCells + e.cell / kTileCells));
-        rehashTile(tile);
-    }
+    for (std::int32_t tile = 0; tile < spec_.tileCount(); ++tile)
+        refreshTile(tile);
     rehashWorld();
 }
 
@@ -212,15 +214,8 @@ void Terrain::replaceTile(
     // edge vertices are shared: neighbouring tiles' bytes and patch bounds may have changed too
     for (std::int32_t ny = std::max(0, ty - 1); ny <= std::min(spec_.tilesY() - 1, ty + 1); ++ny)
         for (std::int32_t nx = std::max(0, tx - 1); nx <= std::min(spec_.tilesX() - 1, tx + 1);
-             ++nx) {
-            const std::int32_t n = ny * spec_.tilesX() + nx;
-            for (PatchEntry& e : tiles_[static_cast<std::size_t>(n)].patches)
-                updateBounds(
-                    e.patch, corners(
-                                 nx * kTileCells + e.cell % kTileCells,
-                                 ny * kTileCells + e.cell / kTileCells));
-            rehashTile(n);
-        }
+             ++nx)
+            refreshTile(ny * spec_.tilesX() + nx);
     rehashWorld();
 }
 
