@@ -1,0 +1,101 @@
+#pragma once
+
+// The client's copy of the world: applies snapshots and ops with the shared core, checks every
+// op's world hash, tracks what diverged and what changed. No sockets, no GL, no clocks; the
+// connection (client/net) feeds it and the tessellator reads its dirty set.
+// Not thread safe: one owner (the client's frame loop).
+
+#include <terrain/deform_op.h>
+#include <terrain/result.h>
+#include <terrain/snapshot.h>
+#include <terrain/terrain.h>
+
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <vector>
+
+namespace terrain::client {
+
+/// What changed since the last takeDirty(): whole tiles (snapshot, repair) and cell rectangles
+/// (ops), for re-tessellation and buffer uploads.
+struct DirtySet {
+    std::vector<std::int32_t> tiles; ///< ascending, unique
+    std::vector<CellRect> cells;     ///< one per op, in apply order
+    bool all = false;                ///< a snapshot replaced everything
+};
+
+struct ReplicaStats {
+    std::uint64_t ops_applied = 0;
+    std::uint64_t ops_stale = 0; ///< already held (seq <= current): ignored
+    std::uint64_t hash_mismatches = 0;
+    std::uint64_t repairs = 0; ///< repairs that restored the server's hash
+    std::uint64_t snapshots = 0;
+};
+
+class Replica {
+  public:
+    enum class OpOutcome {
+        kApplied,  ///< applied, hash verified (or the replica was already diverged)
+        kStale,    ///< seq <= current seq: already held, ignored
+        kDiverged, ///< applied, but the hash differs: call repair with suspectTiles()
+    };
+
+    /// True once a snapshot was loaded.
+    bool ready() const { return terrain_.has_value(); }
+    std::uint64_t seq() const { return seq_; }
+    std::uint64_t worldHash() const { return terrain_ ? terrain_->worldHash() : 0; }
+    const Terrain& terrain() const { return *terrain_; }
+    /// True from a hash mismatch until a repair or snapshot restores the server's hash.
+    bool diverged() const { return diverged_; }
+    /// The last seq whose hash was verified equal to the server's.
+    std::uint64_t verifiedSeq() const { return verified_seq_; }
+    std::uint64_t verifiedHash() const { return verified_hash_; }
+
+    /// Replaces the whole state (the snapshot was decoded and checked by the core).
+    void loadSnapshot(DecodedSnapshot snapshot);
+
+    /// Applies op `seq` on top of seq - 1 and compares the hash. Errors (the caller resyncs by
+    /// snapshot): kOutOfRange for a gap (seq > current + 1) or no state yet; the core's refusal
+    /// if the op does not apply (validation depends on the spec only, so this means a bad peer).
+    Result<OpOutcome> applyOp(std::uint64_t seq, const DeformOp& op, std::uint64_t world_hash);
+
+    /// Tiles to ask the server for: those changed by ops since the divergence, ascending.
+    std::vector<std::int32_t> suspectTiles() const;
+
+    /// Applies tile state that the server sent at `seq` (must equal the current seq: it follows
+    /// every op up to it on the stream). Replaces the tiles, checks the patch invariants, then
+    /// compares every tile hash with `server_tile_hashes` (when given). Returns the tiles that
+    /// still differ (empty when the world hash now equals `world_hash`).
+    /// Errors: kOutOfRange (seq differs), kInvariantBroken (the repaired state breaks an
+    /// invariant: resync by snapshot), kSizeMismatch (hash list of the wrong length).
+    Result<std::vector<std::int32_t>> applyRepair(
+        std::uint64_t seq,
+        std::uint64_t world_hash,
+        std::vector<TileRecord> tiles,
+        std::span<const std::uint64_t> server_tile_hashes);
+
+    /// Returns and clears what changed since the last call.
+    DirtySet takeDirty();
+    const DirtySet& peekDirty() const { return dirty_; }
+
+    const ReplicaStats& stats() const { return stats_; }
+
+    /// Tests only: corrupts the replica behind the hashes' back (e.g. a local op the server never
+    /// sent), to exercise detection and repair.
+    Terrain& terrainForTesting() { return *terrain_; }
+
+  private:
+    void markTile(std::int32_t tile);
+
+    std::optional<Terrain> terrain_;
+    std::uint64_t seq_ = 0;
+    std::uint64_t verified_seq_ = 0;
+    std::uint64_t verified_hash_ = 0;
+    bool diverged_ = false;
+    std::vector<std::int32_t> suspects_;
+    DirtySet dirty_;
+    ReplicaStats stats_;
+};
+
+} // namespace terrain::client

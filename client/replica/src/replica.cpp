@@ -1,0 +1,119 @@
+#include <terrain/client/replica.h>
+
+#include <algorithm>
+#include <string>
+#include <utility>
+
+namespace terrain::client {
+
+void Replica::loadSnapshot(DecodedSnapshot snapshot) {
+    seq_ = snapshot.sequence;
+    terrain_.emplace(std::move(snapshot.terrain));
+    verified_seq_ = seq_;
+    verified_hash_ = terrain_->worldHash();
+    diverged_ = false;
+    suspects_.clear();
+    dirty_.tiles.clear();
+    dirty_.cells.clear();
+    dirty_.all = true;
+    ++stats_.snapshots;
+}
+
+Result<Replica::OpOutcome>
+Replica::applyOp(std::uint64_t seq, const DeformOp& op, std::uint64_t world_hash) {
+    if (!terrain_)
+        return makeError(ErrorCode::kOutOfRange, "op before any snapshot");
+    if (seq <= seq_) {
+        ++stats_.ops_stale;
+        return OpOutcome::kStale;
+    }
+    if (seq != seq_ + 1)
+        return makeError(
+            ErrorCode::kOutOfRange, "op seq " + std::to_string(seq) + " arrived on top of seq " +
+                                        std::to_string(seq_) + " (a gap)");
+    Result<OpEffect> effect = terrain_->apply(op);
+    if (!effect)
+        return effect.error();
+    seq_ = seq;
+    ++stats_.ops_applied;
+    for (std::int32_t tile : effect->dirty_tiles)
+        markTile(tile);
+    if (!effect->cells.empty())
+        dirty_.cells.push_back(effect->cells);
+    if (diverged_) {
+        suspects_.insert(suspects_.end(), effect->dirty_tiles.begin(), effect->dirty_tiles.end());
+        if (terrain_->worldHash() != world_hash)
+            return OpOutcome::kApplied;
+        diverged_ = false; // a later op happened to bring both sides together again
+        suspects_.clear();
+    }
+    if (terrain_->worldHash() != world_hash) {
+        ++stats_.hash_mismatches;
+        diverged_ = true;
+        suspects_.assign(effect->dirty_tiles.begin(), effect->dirty_tiles.end());
+        return OpOutcome::kDiverged;
+    }
+    verified_seq_ = seq;
+    verified_hash_ = world_hash;
+    return OpOutcome::kApplied;
+}
+
+std::vector<std::int32_t> Replica::suspectTiles() const {
+    std::vector<std::int32_t> tiles = suspects_;
+    std::sort(tiles.begin(), tiles.end());
+    tiles.erase(std::unique(tiles.begin(), tiles.end()), tiles.end());
+    return tiles;
+}
+
+Result<std::vector<std::int32_t>> Replica::applyRepair(
+    std::uint64_t seq,
+    std::uint64_t world_hash,
+    std::vector<TileRecord> tiles,
+    std::span<const std::uint64_t> server_tile_hashes) {
+    if (!terrain_ || seq != seq_)
+        return makeError(
+            ErrorCode::kOutOfRange, "repair state at seq " + std::to_string(seq) +
+                                        " does not match the replica's seq " +
+                                        std::to_string(seq_));
+    const std::int32_t tile_count = terrain_->spec().tileCount();
+    if (!server_tile_hashes.empty() &&
+        server_tile_hashes.size() != static_cast<std::size_t>(tile_count))
+        return makeError(ErrorCode::kSizeMismatch, "repair carries a tile hash list of the wrong length");
+    for (TileRecord& record : tiles) {
+        terrain_->replaceTile(record.tile, record.samples, std::move(record.patches));
+        markTile(record.tile);
+    }
+    // replaceTile() trusts its input: the repaired whole must keep every patch invariant
+    if (Status s = terrain_->checkInvariants(); !s)
+        return s.error();
+    std::vector<std::int32_t> still_different;
+    for (std::size_t t = 0; t < server_tile_hashes.size(); ++t)
+        if (terrain_->tileHash(static_cast<std::int32_t>(t)) != server_tile_hashes[t])
+            still_different.push_back(static_cast<std::int32_t>(t));
+    if (terrain_->worldHash() == world_hash) {
+        diverged_ = false;
+        suspects_.clear();
+        verified_seq_ = seq_;
+        verified_hash_ = world_hash;
+        ++stats_.repairs;
+        return std::vector<std::int32_t>{};
+    }
+    if (still_different.empty() && server_tile_hashes.empty())
+        still_different = suspectTiles();
+    suspects_ = still_different;
+    return still_different;
+}
+
+void Replica::markTile(std::int32_t tile) {
+    auto it = std::lower_bound(dirty_.tiles.begin(), dirty_.tiles.end(), tile);
+    if (it == dirty_.tiles.end() || *it != tile)
+        dirty_.tiles.insert(it, tile);
+}
+
+DirtySet Replica::takeDirty() {
+    DirtySet out = std::move(dirty_);
+    dirty_ = DirtySet{};
+    return out;
+}
+
+} // namespace terrain::client

@@ -1,0 +1,274 @@
+#include "journal_dir.h"
+#include "posix_file.h"
+
+#include <terrain/assert.h>
+#include <terrain/journal/journal.h>
+#include <terrain/snapshot.h>
+
+#include <fcntl.h>
+
+#include <algorithm>
+#include <system_error>
+#include <utility>
+
+namespace terrain::journal {
+
+struct Journal::Files {
+    detail::FileHandle lock;
+    detail::FileHandle segment; // O_APPEND
+};
+
+const char* toString(Durability durability) {
+    switch (durability) {
+    case Durability::kFsync:
+        return "fsync";
+    case Durability::kWrite:
+        return "write";
+    }
+    return "?";
+}
+
+Result<Durability> parseDurability(std::string_view text) {
+    if (text == "fsync")
+        return Durability::kFsync;
+    if (text == "write")
+        return Durability::kWrite;
+    return makeError(
+        ErrorCode::kBadFormat,
+        "durability '" + std::string(text) + "' is not one of: fsync, write");
+}
+
+Journal::Journal(std::filesystem::path dir, JournalOptions options)
+    : dir_(std::move(dir)), options_(options), files_(std::make_unique<Files>()) {}
+
+Journal::Journal(Journal&&) noexcept = default;
+Journal& Journal::operator=(Journal&&) noexcept = default;
+Journal::~Journal() = default;
+
+Result<Journal> Journal::open(const std::filesystem::path& dir, JournalOptions options) {
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    if (ec)
+        return makeError(ErrorCode::kIo, "cannot create " + dir.string() + ": " + ec.message());
+    auto lock = detail::lockFile(dir / "LOCK");
+    if (!lock)
+        return lock.error();
+    Journal journal(dir, options);
+    journal.files_->lock = std::move(*lock);
+    return journal;
+}
+
+bool Journal::empty() const {
+    auto listing = detail::listJournalDir(dir_);
+    return listing && listing->snapshots.empty() && listing->segments.empty();
+}
+
+Error Journal::fail(Error error) {
+    failure_ = error;
+    return error;
+}
+
+Status Journal::startSegment(std::uint64_t first_seq) {
+    std::vector<std::uint8_t> header;
+    appendSegmentHeader(first_seq, header);
+    // note: created atomically, so a segment file always has a whole header; a bad header is
+    // corruption, never a torn write
+    const std::filesystem::path path = dir_ / detail::segmentFileName(first_seq);
+    if (auto s = detail::writeFileAtomically(path, header); !s)
+        return s;
+    if (auto s = continueSegment(path); !s)
+        return s;
+    segment_first_seq_ = first_seq;
+    return Ok{};
+}
+
+Status Journal::continueSegment(const std::filesystem::path& path) {
+    auto file = detail::openFile(path, O_WRONLY | O_APPEND);
+    if (!file)
+        return file.error();
+    files_->segment = std::move(*file);
+    segment_path_ = path;
+    return Ok{};
+}
+
+Status Journal::initialize(const Terrain& genesis, std::uint64_t seq) {
+    TERRAIN_ASSERT(!ready_);
+    if (failure_)
+        return *failure_;
+    auto listing = detail::listJournalDir(dir_);
+    if (!listing)
+        return listing.error();
+    if (!listing->snapshots.empty() || !listing->segments.empty())
+        return makeError(
+            ErrorCode::kIo,
+            dir_.string() + " already holds a journal (snapshot or segment files); recover() it");
+    const auto snapshot = encodeSnapshot(genesis, seq);
+    if (auto s = detail::writeFileAtomically(dir_ / detail::snapshotFileName(seq), snapshot); !s)
+        return fail(s.error());
+    if (auto s = startSegment(seq + 1); !s)
+        return fail(s.error());
+    ++stats_.snapshots_written;
+    last_seq_ = seq;
+    appended_seq_ = seq;
+    ready_ = true;
+    return Ok{};
+}
+
+Result<RecoveredState> Journal::recover() {
+    TERRAIN_ASSERT(!ready_);
+    if (failure_)
+        return *failure_;
+    auto listing = detail::listJournalDir(dir_);
+    if (!listing)
+        return listing.error();
+    if (listing->snapshots.empty())
+        return makeError(ErrorCode::kIo, "no snapshot in " + dir_.string());
+
+    // the newest snapshot that decodes; older ones (and their longer replay) are the fallback
+    std::vector<std::string> notes;
+    std::optional<Error> newest_error;
+    std::optional<DecodedSnapshot> base;
+    for (auto it = listing->snapshots.rbegin(); it != listing->snapshots.rend() && !base; ++it) {
+        const std::string name = it->path.filename().string();
+        auto bytes = detail::readWholeFile(it->path);
+        Result<DecodedSnapshot> decoded =
+            bytes ? decodeSnapshot(*bytes) : Result<DecodedSnapshot>(bytes.error());
+        if (decoded && decoded->sequence != it->seq)
+            decoded = makeError(
+                ErrorCode::kBadFormat, "holds seq " + std::to_string(decoded->sequence) +
+                                           ", its name says " + std::to_string(it->seq));
+        if (decoded) {
+            base.emplace(std::move(*decoded));
+            break;
+        }
+        notes.push_back(name + " skipped: " + decoded.error().message);
+        if (!newest_error)
+            newest_error = makeError(
+                decoded.error().code, "no snapshot in " + dir_.string() + " can be loaded; " +
+                                          name + ": " + decoded.error().message);
+    }
+    if (!base)
+        return *newest_error;
+
+    const std::uint64_t snapshot_seq = base->sequence;
+    Terrain terrain = std::move(base->terrain);
+    auto replay = detail::replaySegments(listing->segments, snapshot_seq, terrain, nullptr);
+    if (!replay)
+        return replay.error();
+
+    // drop the torn tail so that new records follow the last good one directly
+    const std::filesystem::path newest =
+        listing->segments.empty() ? std::filesystem::path() : listing->segments.back().path;
+    if (replay->torn_bytes > 0) {
+        if (auto s = detail::truncateFile(newest, replay->newest_good_bytes); !s)
+            return fail(s.error());
+        notes.push_back(
+            "dropped a torn tail of " + std::to_string(replay->torn_bytes) + " bytes at offset " +
+            std::to_string(replay->newest_good_bytes) + " of " + newest.filename().string());
+    }
+    for (const auto& temp : listing->temps)
+        if (auto s = detail::removeFile(temp); !s)
+            notes.push_back(s.error().message);
+
+    const std::uint64_t seq = replay->last_seq;
+    if (replay->newest_next && *replay->newest_next == seq + 1) {
+        if (auto s = continueSegment(newest); !s)
+            return fail(s.error());
+        segment_first_seq_ = listing->segments.back().seq;
+    } else {
+        // no segment yet (a crash right after the snapshot), or the newest one ends before it
+        if (auto s = startSegment(seq + 1); !s)
+            return fail(s.error());
+        notes.push_back("started " + detail::segmentFileName(seq + 1));
+    }
+    last_seq_ = seq;
+    appended_seq_ = seq;
+    ready_ = true;
+    return RecoveredState{std::move(terrain), seq,
+                          snapshot_seq,       replay->replayed,
+                          replay->torn_bytes, std::move(notes)};
+}
+
+void Journal::append(const JournalRecord& record) {
+    TERRAIN_ASSERT(ready_);
+    TERRAIN_ASSERT(record.seq == appended_seq_ + 1);
+    appendRecord(record, pending_bytes_);
+    appended_seq_ = record.seq;
+    ++pending_records_;
+}
+
+Status Journal::commit() {
+    if (failure_)
+        return *failure_;
+    if (pending_records_ == 0)
+        return Ok{};
+    TERRAIN_ASSERT(ready_);
+    if (auto s = detail::writeAll(files_->segment.get(), pending_bytes_, segment_path_); !s)
+        return fail(s.error());
+    if (options_.durability == Durability::kFsync) {
+        if (auto s = detail::syncData(files_->segment.get(), segment_path_); !s)
+            return fail(s.error());
+        ++stats_.fsyncs;
+    }
+    ++stats_.commits;
+    stats_.records_written += pending_records_;
+    stats_.bytes_written += pending_bytes_.size();
+    last_seq_ = appended_seq_;
+    pending_bytes_.clear(); // keeps its capacity for the next group
+    pending_records_ = 0;
+    return Ok{};
+}
+
+Status Journal::writeSnapshot(const Terrain& terrain, std::uint64_t seq) {
+    if (failure_)
+        return *failure_;
+    TERRAIN_ASSERT(ready_);
+    if (pending_records_ != 0 || seq != last_seq_)
+        return makeError(
+            ErrorCode::kOutOfRange, "writeSnapshot(seq " + std::to_string(seq) +
+                                        ") needs seq == lastSeq() (" + std::to_string(last_seq_) +
+                                        ") and nothing pending (" +
+                                        std::to_string(pending_records_) + " records)");
+    // the segment being closed becomes durable first, whatever the policy: pruning may delete
+    // the older snapshots that could otherwise have rebuilt its records
+    if (auto s = detail::syncData(files_->segment.get(), segment_path_); !s)
+        return fail(s.error());
+    const auto bytes = encodeSnapshot(terrain, seq);
+    if (auto s = detail::writeFileAtomically(dir_ / detail::snapshotFileName(seq), bytes); !s)
+        return fail(s.error());
+    ++stats_.snapshots_written;
+    // an empty current segment already starts at seq + 1 (a second snapshot at the same seq)
+    if (segment_first_seq_ != seq + 1) {
+        if (auto s = startSegment(seq + 1); !s)
+            return fail(s.error());
+    }
+    return prune();
+}
+
+Status Journal::prune() {
+    auto listing = detail::listJournalDir(dir_);
+    if (!listing)
+        return listing.error();
+    const std::size_t keep = std::max<std::size_t>(options_.keep_snapshots, 1);
+    const auto& snapshots = listing->snapshots;
+    const std::size_t drop = snapshots.size() > keep ? snapshots.size() - keep : 0;
+    if (snapshots.empty())
+        return Ok{};
+    const std::uint64_t oldest_kept = snapshots[drop].seq;
+    std::optional<Error> first_error;
+    auto remove = [&](const std::filesystem::path& path) {
+        if (auto s = detail::removeFile(path); !s && !first_error)
+            first_error = s.error();
+    };
+    for (std::size_t i = 0; i < drop; ++i)
+        remove(snapshots[i].path);
+    // note: firstSegmentAfter() never returns past the newest segment, so the current one stays
+    const std::size_t first_needed = detail::firstSegmentAfter(listing->segments, oldest_kept);
+    for (std::size_t i = 0; i < first_needed; ++i)
+        remove(listing->segments[i].path);
+    if (first_error)
+        return *first_error;
+    return Ok{};
+}
+
+} // namespace terrain::journal

@@ -1,0 +1,371 @@
+// terrain-server: the authoritative terrain service.
+//   terrain-server [serve] [options]       run (default)
+//   terrain-server token --player 7 --role deformer [--ttl 3600]   mint an access token
+//   terrain-server health [--connect host:port]                    exit 0 when serving
+// Every option also reads an environment variable (TERRAIN_*), so containers need no flags.
+
+#include <terrain/io/dem_import.h>
+#include <terrain/journal/journal.h>
+#include <terrain/procedural_map.h>
+#include <terrain/server/auth_token.h>
+#include <terrain/server/authority.h>
+#include <terrain/server/server.h>
+#include <terrain/wire/codec.h>
+#include <terrain/wire/framing.h>
+
+#include <CLI/CLI.hpp>
+#include <asio.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <optional>
+#include <sstream>
+#include <string>
+
+namespace {
+
+using namespace terrain;
+namespace pb = wire::pb;
+
+struct Options {
+    std::string bind = "0.0.0.0";
+    int port = 7777;
+    std::string data_dir = "terrain-data";
+    bool no_journal = false;
+    std::string durability = "fsync";
+    std::string secret;
+    std::string secret_file;
+    std::string dem;
+    std::uint64_t seed = 1;
+    int size = 1025;
+    double tolerance = 1.0 / 32.0;
+    std::size_t max_sessions = 1024;
+    std::size_t outbound_budget = 4 << 20;
+    std::size_t op_log = 8192;
+    double deform_rate = 30.0;
+    std::uint64_t snapshot_every = 20000;
+    std::string port_file;
+    // token
+    std::uint64_t player = 0;
+    std::string role = "viewer";
+    std::int64_t ttl = 3600;
+    // health
+    std::string connect = "127.0.0.1:7777";
+};
+
+Result<std::vector<std::uint8_t>> loadSecret(const Options& o) {
+    std::string text = o.secret;
+    if (!o.secret_file.empty()) {
+        std::ifstream in(o.secret_file);
+        if (!in)
+            return makeError(ErrorCode::kIo, "cannot read token secret file " + o.secret_file);
+        std::getline(in, text);
+    }
+    if (text.empty())
+        return makeError(
+            ErrorCode::kOutOfRange,
+            "no token secret: set --token-secret, --token-secret-file or TERRAIN_TOKEN_SECRET");
+    return server::parseSecret(text);
+}
+
+Result<Terrain> genesisTerrain(const Options& o) {
+    if (!o.dem.empty()) {
+        io::DemImportOptions import;
+        Result<io::ImportedDem> dem = io::importDem(o.dem, import);
+        if (!dem)
+            return dem.error();
+        return std::move(dem->terrain);
+    }
+    ProceduralMapOptions p;
+    p.seed = o.seed;
+    p.width = o.size;
+    p.height = o.size;
+    p.patch_tolerance_metres = o.tolerance;
+    return makeProceduralMap(p);
+}
+
+int serve(const Options& o) {
+    std::setvbuf(stdout, nullptr, _IOLBF, 0);
+    Result<std::vector<std::uint8_t>> secret = loadSecret(o);
+    if (!secret) {
+        std::printf("terrain-server: %s\n", secret.error().message.c_str());
+        return 2;
+    }
+    std::optional<journal::Journal> journal;
+    std::optional<Terrain> terrain;
+    std::uint64_t seq = 0;
+    const auto t0 = std::chrono::steady_clock::now();
+    if (!o.no_journal) {
+        Result<journal::Durability> durability = journal::parseDurability(o.durability);
+        if (!durability) {
+            std::printf("terrain-server: %s\n", durability.error().message.c_str());
+            return 2;
+        }
+        Result<journal::Journal> opened = journal::Journal::open(o.data_dir, {*durability, 2});
+        if (!opened) {
+            std::printf("terrain-server: %s\n", opened.error().message.c_str());
+            return 1;
+        }
+        journal.emplace(std::move(*opened));
+        if (journal->empty()) {
+            Result<Terrain> genesis = genesisTerrain(o);
+            if (!genesis) {
+                std::printf("terrain-server: map: %s\n", genesis.error().message.c_str());
+                return 1;
+            }
+            if (Status s = journal->initialize(*genesis, 0); !s) {
+                std::printf("terrain-server: %s\n", s.error().message.c_str());
+                return 1;
+            }
+            terrain.emplace(std::move(*genesis));
+            std::printf("journal: new world in %s\n", o.data_dir.c_str());
+        } else {
+            Result<journal::RecoveredState> recovered = journal->recover();
+            if (!recovered) {
+                std::printf("terrain-server: recovery refused: %s\n",
+                            recovered.error().message.c_str());
+                return 1;
+            }
+            for (const std::string& note : recovered->notes)
+                std::printf("journal: %s\n", note.c_str());
+            std::printf(
+                "journal: recovered seq %llu (snapshot %llu + %zu records replayed, hashes "
+                "verified, %zu torn bytes dropped)\n",
+                static_cast<unsigned long long>(recovered->seq),
+                static_cast<unsigned long long>(recovered->snapshot_seq),
+                recovered->replayed_records, recovered->torn_bytes_dropped);
+            seq = recovered->seq;
+            terrain.emplace(std::move(recovered->terrain));
+        }
+    } else {
+        Result<Terrain> genesis = genesisTerrain(o);
+        if (!genesis) {
+            std::printf("terrain-server: map: %s\n", genesis.error().message.c_str());
+            return 1;
+        }
+        terrain.emplace(std::move(*genesis));
+        std::printf("journal: none (--no-journal): ops are acknowledged without durability\n");
+    }
+    const double load_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    const WorldSpec spec = terrain->spec();
+    server::Authority authority(std::move(*terrain), seq, o.op_log);
+
+    server::ServerConfig config;
+    config.bind_address = o.bind;
+    config.port = static_cast<std::uint16_t>(o.port);
+    config.max_sessions = o.max_sessions;
+    config.outbound_budget_bytes = o.outbound_budget;
+    config.op_log_capacity = o.op_log;
+    config.deform_rate_per_second = o.deform_rate;
+    config.deform_burst = 2 * o.deform_rate;
+    config.journal_snapshot_every = o.snapshot_every;
+    config.token_secret = *secret;
+
+    asio::io_context io(1);
+    server::Server srv(io, config, authority, journal ? &*journal : nullptr);
+    if (Status s = srv.start(); !s) {
+        std::printf("terrain-server: %s\n", s.error().message.c_str());
+        return 1;
+    }
+    std::printf(
+        "terrain-server: %dx%d map, seq %llu, world hash %016llx, loaded in %.0f ms; listening on "
+        "%s:%u\n",
+        spec.width, spec.height, static_cast<unsigned long long>(authority.seq()),
+        static_cast<unsigned long long>(authority.terrain().worldHash()), load_ms, o.bind.c_str(),
+        srv.port());
+    if (!o.port_file.empty()) {
+        std::ofstream(o.port_file) << srv.port() << "\n";
+    }
+    asio::signal_set signals(io, SIGTERM, SIGINT);
+    signals.async_wait([&](const asio::error_code& ec, int signal) {
+        if (ec)
+            return;
+        std::printf("terrain-server: signal %d: draining\n", signal);
+        srv.shutdown([&] { io.stop(); });
+    });
+    // a failed journal stops the server: nothing more may be acknowledged
+    asio::steady_timer watchdog(io);
+    std::function<void()> watch = [&] {
+        watchdog.expires_after(std::chrono::milliseconds(200));
+        watchdog.async_wait([&](const asio::error_code& ec) {
+            if (ec)
+                return;
+            if (srv.failed())
+                srv.shutdown([&] { io.stop(); });
+            else
+                watch();
+        });
+    };
+    watch();
+    io.run();
+    const server::ServerStats& st = srv.stats();
+    std::printf(
+        "terrain-server: stopped at seq %llu, hash %016llx; %llu ops accepted, %llu refused, "
+        "%llu commits, %llu sessions, %llu resyncs, %llu slow disconnects\n",
+        static_cast<unsigned long long>(srv.broadcastSeq()),
+        static_cast<unsigned long long>(authority.terrain().worldHash()),
+        static_cast<unsigned long long>(st.ops_accepted),
+        static_cast<unsigned long long>(st.ops_refused),
+        static_cast<unsigned long long>(st.commits),
+        static_cast<unsigned long long>(st.sessions_accepted),
+        static_cast<unsigned long long>(st.resyncs),
+        static_cast<unsigned long long>(st.slow_disconnects));
+    if (srv.failed()) {
+        std::printf("terrain-server: failed: %s\n", srv.failure().c_str());
+        return 1;
+    }
+    return 0;
+}
+
+int mintToken(const Options& o) {
+    Result<std::vector<std::uint8_t>> secret = loadSecret(o);
+    if (!secret) {
+        std::fprintf(stderr, "terrain-server token: %s\n", secret.error().message.c_str());
+        return 2;
+    }
+    Result<server::Role> role = server::parseRole(o.role);
+    if (!role) {
+        std::fprintf(stderr, "terrain-server token: %s\n", role.error().message.c_str());
+        return 2;
+    }
+    const std::int64_t now = std::chrono::duration_cast<std::chrono::seconds>(
+                                 std::chrono::system_clock::now().time_since_epoch())
+                                 .count();
+    std::printf("%s\n", server::mintToken({o.player, *role, now + o.ttl}, *secret).c_str());
+    return 0;
+}
+
+int healthCheck(const Options& o) {
+    const auto colon = o.connect.rfind(':');
+    if (colon == std::string::npos) {
+        std::fprintf(stderr, "health: --connect must be host:port\n");
+        return 2;
+    }
+    const std::string host = o.connect.substr(0, colon);
+    const std::string port = o.connect.substr(colon + 1);
+    asio::io_context io;
+    asio::ip::tcp::socket socket(io);
+    asio::ip::tcp::resolver resolver(io);
+    std::vector<std::uint8_t> out;
+    pb::Envelope request;
+    request.mutable_health_request();
+    wire::appendFrame(request, out);
+    wire::FrameReader reader(1 << 16);
+    int result = 1;
+    std::string detail = "no reply within 3 s";
+    asio::async_connect(
+        socket, resolver.resolve(host, port),
+        [&](const asio::error_code& ec, const asio::ip::tcp::endpoint&) {
+            if (ec) {
+                detail = "cannot connect: " + ec.message();
+                io.stop();
+                return;
+            }
+            asio::async_write(socket, asio::buffer(out), [&](const asio::error_code& wec, std::size_t) {
+                if (wec) {
+                    detail = "write: " + wec.message();
+                    io.stop();
+                    return;
+                }
+                std::function<void()> readSome = [&] {
+                    auto space = reader.prepare(4096);
+                    socket.async_read_some(
+                        asio::buffer(space.data(), space.size()),
+                        [&](const asio::error_code& rec, std::size_t n) {
+                            if (rec) {
+                                detail = "read: " + rec.message();
+                                io.stop();
+                                return;
+                            }
+                            reader.commit(n);
+                            auto frame = reader.next();
+                            if (frame && frame->has_value()) {
+                                auto env = wire::decodeEnvelope(**frame);
+                                if (env && env->has_health_reply()) {
+                                    const auto& h = env->health_reply();
+                                    result = h.healthy() ? 0 : 1;
+                                    char buf[160];
+                                    std::snprintf(buf, sizeof buf, "%s, seq %llu, hash %016llx, %u sessions",
+                                        h.detail().c_str(), static_cast<unsigned long long>(h.seq()),
+                                        static_cast<unsigned long long>(h.world_hash()), h.sessions());
+                                    detail = buf;
+                                } else {
+                                    detail = "unexpected reply";
+                                }
+                                io.stop();
+                                return;
+                            }
+                            readSome();
+                        });
+                };
+                readSome();
+            });
+        });
+    io.run_for(std::chrono::seconds(3));
+    std::printf("health: %s: %s\n", result == 0 ? "ok" : "FAIL", detail.c_str());
+    return result;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+    Options o;
+    CLI::App app{"terrain-server: authoritative deformable terrain over TCP"};
+    app.add_option("--token-secret", o.secret, "HMAC secret for access tokens (>= 16 bytes, or hex:...)")
+        ->envname("TERRAIN_TOKEN_SECRET");
+    app.add_option("--token-secret-file", o.secret_file, "file whose first line is the secret")
+        ->envname("TERRAIN_TOKEN_SECRET_FILE");
+
+    CLI::App* serve_cmd = app.add_subcommand("serve", "run the server (the default)");
+    serve_cmd->add_option("--bind", o.bind, "address to listen on")->envname("TERRAIN_BIND");
+    serve_cmd->add_option("--port", o.port, "TCP port (0: any free port)")
+        ->envname("TERRAIN_PORT")->check(CLI::Range(0, 65535));
+    serve_cmd->add_option("--data-dir", o.data_dir, "journal and snapshots directory")
+        ->envname("TERRAIN_DATA_DIR");
+    serve_cmd->add_flag("--no-journal", o.no_journal, "keep no journal (ops are not durable)")
+        ->envname("TERRAIN_NO_JOURNAL");
+    serve_cmd->add_option("--durability", o.durability,
+        "fsync: fdatasync before an op is acknowledged; write: write() only (survives a server "
+        "crash, not an OS crash)")->envname("TERRAIN_DURABILITY");
+    serve_cmd->add_option("--dem", o.dem, "genesis map: DEM sidecar JSON (new data dir only)")
+        ->envname("TERRAIN_DEM");
+    serve_cmd->add_option("--seed", o.seed, "genesis map: procedural seed")->envname("TERRAIN_SEED");
+    serve_cmd->add_option("--size", o.size, "genesis map: procedural size in vertices")
+        ->envname("TERRAIN_SIZE")->check(CLI::Range(65, 8193));
+    serve_cmd->add_option("--tolerance", o.tolerance, "patch tolerance in metres")
+        ->check(CLI::Range(1.0 / 1024, 10.0));
+    serve_cmd->add_option("--max-sessions", o.max_sessions)->envname("TERRAIN_MAX_SESSIONS");
+    serve_cmd->add_option("--outbound-budget", o.outbound_budget,
+        "bytes of op backlog per session before a snapshot resync")
+        ->envname("TERRAIN_OUTBOUND_BUDGET")->check(CLI::Range(4096, 1 << 30));
+    serve_cmd->add_option("--op-log", o.op_log, "ops retained for reconnects")
+        ->envname("TERRAIN_OP_LOG")->check(CLI::Range(16, 1 << 24));
+    serve_cmd->add_option("--deform-rate", o.deform_rate, "deform requests per second per session")
+        ->envname("TERRAIN_DEFORM_RATE")->check(CLI::Range(0.1, 100000.0));
+    serve_cmd->add_option("--snapshot-every", o.snapshot_every, "journal snapshot every N ops")
+        ->envname("TERRAIN_SNAPSHOT_EVERY");
+    serve_cmd->add_option("--port-file", o.port_file, "write the bound port to this file");
+
+    CLI::App* token_cmd = app.add_subcommand("token", "mint an access token");
+    token_cmd->add_option("--player", o.player)->required();
+    token_cmd->add_option("--role", o.role, "viewer | deformer | admin");
+    token_cmd->add_option("--ttl", o.ttl, "seconds until it expires")->check(CLI::Range(1, 100000000));
+
+    CLI::App* health_cmd = app.add_subcommand("health", "exit 0 when the server answers healthy");
+    health_cmd->add_option("--connect", o.connect, "host:port")->envname("TERRAIN_HEALTH_CONNECT");
+    app.require_subcommand(0, 1);
+    CLI11_PARSE(app, argc, argv);
+
+    if (token_cmd->parsed())
+        return mintToken(o);
+    if (health_cmd->parsed())
+        return healthCheck(o);
+    if (!serve_cmd->parsed()) {
+        // `terrain-server` alone serves with defaults and environment
+        serve_cmd->parse(std::vector<std::string>{});
+    }
+    return serve(o);
+}

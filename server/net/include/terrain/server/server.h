@@ -1,0 +1,146 @@
+#pragma once
+
+// The network edge of the authority: an Asio acceptor and one Session per TCP connection, all on
+// one io_context thread (single-threaded by contract, ARCHITECTURE.md). Accepted ops are
+// journaled (group commit: every op accepted in one pass of the event loop shares one write and
+// one fsync), and only then broadcast and acknowledged.
+
+#include <terrain/journal/journal.h>
+#include <terrain/server/auth_token.h>
+#include <terrain/server/authority.h>
+#include <terrain/wire/codec.h>
+#include <terrain/wire/snapshot_stream.h>
+
+#include <asio.hpp>
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace terrain::server {
+
+class Session;
+
+struct ServerConfig {
+    std::string bind_address = "127.0.0.1";
+    std::uint16_t port = 0; ///< 0: an ephemeral port (tests); see Server::port()
+    /// Inbound frame limit: clients send small requests only.
+    std::size_t max_inbound_frame_bytes = 64 << 10;
+    /// Per-session backlog of ops and replies; over it the session is resynced by snapshot, and
+    /// over it again before the queue drained it is disconnected as a slow consumer.
+    std::size_t outbound_budget_bytes = 4 << 20;
+    std::size_t max_sessions = 1024;
+    /// SO_SNDBUF per session (0: the OS default). Small values bound kernel memory per client.
+    int socket_send_buffer_bytes = 0;
+    std::size_t op_log_capacity = 8192;
+    double deform_rate_per_second = 30.0;
+    double deform_burst = 60.0;
+    double frame_rate_per_second = 2000.0; ///< any frame; above it the session is flooding
+    double frame_burst = 4000.0;
+    double repair_rate_per_second = 2.0; ///< repair and snapshot requests
+    double repair_burst = 6.0;
+    double hello_timeout_seconds = 5.0;
+    double close_linger_seconds = 2.0; ///< time a closing session gets to read its Disconnect
+    std::size_t snapshot_chunk_bytes = wire::kDefaultSnapshotChunkBytes;
+    /// The cached join snapshot is rebuilt once it is this many ops behind (joins replay the rest).
+    std::uint64_t snapshot_cache_max_lag = 2000;
+    /// The journal writes a snapshot every this many ops (0: only on shutdown).
+    std::uint64_t journal_snapshot_every = 20000;
+    std::vector<std::uint8_t> token_secret;
+};
+
+struct ServerStats {
+    std::uint64_t sessions_accepted = 0;
+    std::uint64_t sessions_live = 0;
+    std::uint64_t ops_accepted = 0;
+    std::uint64_t ops_refused = 0;
+    std::uint64_t commits = 0;
+    std::uint64_t resyncs = 0;
+    std::uint64_t slow_disconnects = 0;
+    std::uint64_t bad_frames = 0;
+    std::uint64_t bad_tokens = 0;
+    std::uint64_t snapshots_built = 0;
+    std::uint64_t repairs_served = 0;
+    std::uint64_t bytes_queued = 0; ///< all frames handed to sessions
+};
+
+class Server {
+  public:
+    /// `journal` may be null (tests, benchmarks): ops are then acknowledged without durability.
+    Server(
+        asio::io_context& io,
+        ServerConfig config,
+        Authority& authority,
+        journal::Journal* journal);
+    ~Server();
+    Server(const Server&) = delete;
+    Server& operator=(const Server&) = delete;
+
+    /// Binds and starts accepting. Errors: kIo naming the address and the OS error.
+    Status start();
+    std::uint16_t port() const { return port_; }
+
+    /// Drains: stops accepting, commits pending ops, writes a journal snapshot, says goodbye to
+    /// every session and calls `done` once they are closed (or after the linger time).
+    void shutdown(std::function<void()> done);
+
+    /// Set when the journal failed: the server stops serving and the process must exit non-zero.
+    bool failed() const { return failed_; }
+    const std::string& failure() const { return failure_; }
+
+    const ServerStats& stats() const { return stats_; }
+    std::size_t sessionCount() const { return sessions_.size(); }
+    std::uint64_t broadcastSeq() const { return broadcast_seq_; }
+    /// Bytes queued in all sessions (shared frames counted per session).
+    std::size_t queuedBytes() const;
+    /// Called on the io thread whenever a batch of ops has been broadcast (benchmarks, logs).
+    std::function<void(std::uint64_t seq)> on_broadcast;
+
+  private:
+    friend class Session;
+
+    struct PendingOp {
+        Accepted accepted;
+        std::weak_ptr<Session> requester;
+        std::uint32_t request_id = 0;
+    };
+
+    void accept();
+    void remove(Session* session);
+    /// Applies a deform request from `session` (already permitted and rate-checked).
+    void submit(const std::shared_ptr<Session>& session, std::uint32_t request_id, Result<Accepted> accepted);
+    void scheduleCommit();
+    /// Journal commit of every pending op, then broadcast + acknowledgement, in seq order.
+    void commitPending();
+    void fail(const std::string& why);
+    /// A snapshot at a seq whose successors are all retained (rebuilt when too old).
+    const wire::SnapshotFrames& joinSnapshot();
+    /// The broadcast frame of op `seq` (retained).
+    const wire::Frame& opFrame(std::uint64_t seq) const;
+
+    asio::io_context& io_;
+    ServerConfig config_;
+    Authority& authority_;
+    journal::Journal* journal_;
+    asio::ip::tcp::acceptor acceptor_;
+    std::uint16_t port_ = 0;
+    std::vector<std::shared_ptr<Session>> sessions_;
+    std::vector<PendingOp> pending_;
+    bool commit_scheduled_ = false;
+    std::uint64_t broadcast_seq_ = 0;
+    std::uint64_t last_journal_snapshot_seq_ = 0;
+    std::vector<wire::Frame> op_frames_; // ring parallel to the authority's op log
+    std::unique_ptr<wire::SnapshotFrames> snapshot_;
+    bool shutting_down_ = false;
+    bool failed_ = false;
+    std::string failure_;
+    std::function<void()> shutdown_done_;
+    asio::steady_timer shutdown_timer_;
+    ServerStats stats_;
+    std::uint64_t next_session_id_ = 1;
+};
+
+} // namespace terrain::server

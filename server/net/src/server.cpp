@@ -1,0 +1,205 @@
+#include <terrain/server/server.h>
+
+#include "session.h"
+
+#include <terrain/assert.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+
+namespace terrain::server {
+namespace pb = wire::pb;
+
+Server::Server(
+    asio::io_context& io, ServerConfig config, Authority& authority, journal::Journal* journal)
+    : io_(io), config_(std::move(config)), authority_(authority), journal_(journal),
+      acceptor_(io), broadcast_seq_(authority.seq()), last_journal_snapshot_seq_(authority.seq()),
+      op_frames_(authority.log().capacity()), shutdown_timer_(io) {}
+
+Server::~Server() = default;
+
+Status Server::start() {
+    asio::error_code ec;
+    const asio::ip::address address = asio::ip::make_address(config_.bind_address, ec);
+    if (ec)
+        return makeError(
+            ErrorCode::kOutOfRange, "bind address '" + config_.bind_address + "': " + ec.message());
+    const asio::ip::tcp::endpoint endpoint(address, config_.port);
+    acceptor_.open(endpoint.protocol(), ec);
+    if (!ec)
+        acceptor_.set_option(asio::ip::tcp::acceptor::reuse_address(true), ec);
+    if (!ec)
+        acceptor_.bind(endpoint, ec);
+    if (!ec)
+        acceptor_.listen(asio::socket_base::max_listen_connections, ec);
+    if (ec)
+        return makeError(
+            ErrorCode::kIo, "cannot listen on " + config_.bind_address + ":" +
+                                std::to_string(config_.port) + ": " + ec.message());
+    port_ = acceptor_.local_endpoint().port();
+    accept();
+    return Ok{};
+}
+
+void Server::accept() {
+    acceptor_.async_accept([this](const asio::error_code& ec, asio::ip::tcp::socket socket) {
+        if (ec == asio::error::operation_aborted || !acceptor_.is_open())
+            return;
+        if (!ec) {
+            auto session = std::make_shared<Session>(*this, std::move(socket), next_session_id_++);
+            ++stats_.sessions_accepted;
+            sessions_.push_back(session);
+            session->start();
+            if (sessions_.size() > config_.max_sessions)
+                session->close(pb::REASON_SERVER_FULL, "the server has no room for a session");
+        }
+        accept();
+    });
+}
+
+void Server::remove(Session* session) {
+    // deferred: a session may finish while the server walks the list
+    asio::post(io_, [this, session] {
+        auto it = std::find_if(sessions_.begin(), sessions_.end(), [&](const auto& s) {
+            return s.get() == session;
+        });
+        if (it != sessions_.end())
+            sessions_.erase(it);
+        if (shutting_down_ && sessions_.empty() && shutdown_done_) {
+            shutdown_timer_.cancel();
+            auto done = std::move(shutdown_done_);
+            shutdown_done_ = nullptr;
+            done();
+        }
+    });
+}
+
+std::size_t Server::queuedBytes() const {
+    std::size_t n = 0;
+    for (const auto& s : sessions_)
+        n += s->queuedBytes();
+    return n;
+}
+
+void Server::submit(
+    const std::shared_ptr<Session>& session, std::uint32_t request_id, Result<Accepted> accepted) {
+    ++stats_.ops_accepted;
+    if (journal_)
+        journal_->append(journal::JournalRecord{
+            accepted->seq, accepted->op, accepted->world_hash});
+    pending_.push_back(PendingOp{std::move(*accepted), session, request_id});
+    scheduleCommit();
+}
+
+void Server::scheduleCommit() {
+    if (commit_scheduled_)
+        return;
+    commit_scheduled_ = true;
+    // runs after the handlers that are already ready: they join this group commit
+    asio::post(io_, [this] {
+        commit_scheduled_ = false;
+        commitPending();
+    });
+}
+
+void Server::fail(const std::string& why) {
+    if (failed_)
+        return;
+    failed_ = true;
+    failure_ = why;
+    std::printf("server: FATAL: %s\n", why.c_str());
+    std::fflush(stdout);
+}
+
+void Server::commitPending() {
+    if (pending_.empty() || failed_)
+        return;
+    if (journal_) {
+        if (Status s = journal_->commit(); !s) {
+            // applied but not durable: this state must never be acknowledged or broadcast
+            fail("journal commit failed: " + s.error().message);
+            for (const auto& session : sessions_)
+                session->close(pb::REASON_UNAVAILABLE, "the server's journal failed");
+            pending_.clear();
+            return;
+        }
+    }
+    ++stats_.commits;
+    std::vector<PendingOp> batch;
+    batch.swap(pending_);
+    for (PendingOp& p : batch) {
+        const Accepted& a = p.accepted;
+        pb::Envelope envelope;
+        wire::opToWire(a.op, a.seq, a.world_hash, *envelope.mutable_op_applied());
+        wire::Frame frame = wire::encodeFrame(envelope);
+        op_frames_[a.seq % op_frames_.size()] = frame;
+        broadcast_seq_ = a.seq;
+        for (std::size_t i = 0; i < sessions_.size(); ++i)
+            sessions_[i]->sendOp(a.seq, frame);
+        if (auto requester = p.requester.lock()) {
+            pb::Envelope reply;
+            reply.mutable_deform_reply()->set_request_id(p.request_id);
+            reply.mutable_deform_reply()->set_accepted_seq(a.seq);
+            requester->sendControl(reply);
+        }
+    }
+    if (journal_ && config_.journal_snapshot_every > 0 &&
+        broadcast_seq_ - last_journal_snapshot_seq_ >= config_.journal_snapshot_every) {
+        if (Status s = journal_->writeSnapshot(authority_.terrain(), broadcast_seq_); !s)
+            fail("journal snapshot failed: " + s.error().message);
+        last_journal_snapshot_seq_ = broadcast_seq_;
+    }
+    if (on_broadcast)
+        on_broadcast(broadcast_seq_);
+}
+
+const wire::Frame& Server::opFrame(std::uint64_t seq) const {
+    return op_frames_[seq % op_frames_.size()];
+}
+
+const wire::SnapshotFrames& Server::joinSnapshot() {
+    // a cached snapshot serves while its successors are retained and it is not too far behind
+    const std::uint64_t current = broadcast_seq_;
+    const bool usable = snapshot_ && snapshot_->seq >= authority_.log().resumableFrom() &&
+                        current - snapshot_->seq <= config_.snapshot_cache_max_lag;
+    if (!usable) {
+        TERRAIN_ASSERT(authority_.seq() == current); // callers commit pending ops first
+        snapshot_ = std::make_unique<wire::SnapshotFrames>(wire::buildSnapshotFrames(
+            authority_.terrain(), current, config_.snapshot_chunk_bytes));
+        ++stats_.snapshots_built;
+    }
+    return *snapshot_;
+}
+
+void Server::shutdown(std::function<void()> done) {
+    if (shutting_down_)
+        return;
+    shutting_down_ = true;
+    asio::error_code ignored;
+    acceptor_.close(ignored);
+    commitPending();
+    if (journal_ && !failed_ && broadcast_seq_ != last_journal_snapshot_seq_) {
+        if (Status s = journal_->writeSnapshot(authority_.terrain(), broadcast_seq_); !s)
+            fail("journal snapshot at shutdown failed: " + s.error().message);
+        last_journal_snapshot_seq_ = broadcast_seq_;
+    }
+    if (sessions_.empty()) {
+        asio::post(io_, std::move(done));
+        return;
+    }
+    shutdown_done_ = std::move(done);
+    for (std::size_t i = 0; i < sessions_.size(); ++i)
+        sessions_[i]->close(pb::REASON_SHUTTING_DOWN, "the server is shutting down");
+    shutdown_timer_.expires_after(std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(config_.close_linger_seconds + 0.5)));
+    shutdown_timer_.async_wait([this](const asio::error_code& ec) {
+        if (ec || !shutdown_done_)
+            return;
+        auto finish = std::move(shutdown_done_);
+        shutdown_done_ = nullptr;
+        finish();
+    });
+}
+
+} // namespace terrain::server

@@ -1,0 +1,71 @@
+#pragma once
+
+// The one place where protobuf types (terrain.v1) meet core types. The net layers on both sides
+// build and read Envelopes; everything behind them (authority, journal, replica) sees only core
+// types. Every conversion from the wire treats its input as untrusted and names the rule broken.
+//
+// Frame layout: varint length | Envelope (see proto/PROTOCOL.md).
+
+#include <terrain/deform_op.h>
+#include <terrain/result.h>
+#include <terrain/snapshot.h>
+#include <terrain/terrain.h>
+#include <terrain/v1/session.pb.h>
+#include <terrain/world_spec.h>
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+namespace terrain::wire {
+
+namespace pb = ::terrain::v1;
+
+inline constexpr std::uint32_t kProtocolVersion = 1;
+
+/// An encoded frame (prefix + envelope), shared by every session that sends it.
+using Frame = std::shared_ptr<const std::vector<std::uint8_t>>;
+
+Frame encodeFrame(const pb::Envelope& envelope);
+/// Appends prefix + envelope to `out` (benchmarks and tests).
+void appendFrame(const pb::Envelope& envelope, std::vector<std::uint8_t>& out);
+
+/// Parses one frame body. Errors: kBadFormat (protobuf refused the bytes, or no body is set).
+Result<pb::Envelope> decodeEnvelope(std::span<const std::uint8_t> body);
+
+// ops
+void opToWire(const DeformOp& op, pb::Op& out);
+void opToWire(const DeformOp& op, std::uint64_t seq, std::uint64_t world_hash, pb::OpApplied& out);
+/// Range checks only (kind known, fields fit the core types); validateOp() checks the world.
+Result<DeformOp> opFromWire(const pb::Op& op);
+Result<DeformOp> opFromWire(const pb::OpApplied& op);
+void requestToWire(const OpRequest& request, pb::OpMetres& out);
+Result<OpRequest> requestFromWire(const pb::OpMetres& request);
+
+// world
+void specToWire(const WorldSpec& spec, pb::WorldInfo& out);
+/// Errors: the spec's own rules (WorldSpec::validate).
+Result<WorldSpec> specFromWire(const pb::WorldInfo& info);
+
+// refusals
+pb::Reason reasonFor(ErrorCode code);
+void refusalToWire(const Error& error, pb::Refusal& out);
+/// "REASON_OUT_OF_RANGE: radius 0.2 m is below ..." for logs and error messages.
+std::string describe(pb::Reason reason, const std::string& message);
+
+// repair: tile records (Terrain::appendTileBytes), each behind a u32 length, zstd-compressed
+struct TileBlob {
+    std::vector<std::uint8_t> compressed;
+    std::uint64_t raw_bytes = 0;
+};
+TileBlob encodeTiles(const Terrain& terrain, std::span<const std::int32_t> tiles);
+/// Errors: decompression's, kBadFormat/kTruncated for records, decodeTile()'s rules, and
+/// kBadFormat for tiles out of ascending order or more than max_tiles.
+Result<std::vector<TileRecord>> decodeTiles(
+    std::span<const std::uint8_t> compressed,
+    std::uint64_t raw_bytes,
+    const WorldSpec& spec,
+    std::size_t max_tiles);
+
+} // namespace terrain::wire

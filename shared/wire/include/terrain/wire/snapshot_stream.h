@@ -1,0 +1,59 @@
+#pragma once
+
+// Snapshots on the wire: SnapshotBegin + N SnapshotChunk frames whose data, concatenated, is one
+// zstd frame of the core snapshot bytes. The server builds the frames once per seq and every
+// joining session shares them; the client reassembles with SnapshotAssembler.
+
+#include <terrain/result.h>
+#include <terrain/snapshot.h>
+#include <terrain/wire/codec.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace terrain::wire {
+
+inline constexpr std::size_t kDefaultSnapshotChunkBytes = std::size_t{256} << 10;
+
+struct SnapshotFrames {
+    std::uint64_t seq = 0;
+    std::uint64_t world_hash = 0;
+    std::uint64_t raw_bytes = 0;
+    std::uint64_t compressed_bytes = 0;
+    std::vector<Frame> frames; ///< begin, then the chunks
+    std::size_t totalBytes() const;
+};
+
+SnapshotFrames buildSnapshotFrames(
+    const Terrain& terrain, std::uint64_t seq, std::size_t chunk_bytes = kDefaultSnapshotChunkBytes);
+
+/// Client side. Refuses out-of-order chunks, more data than announced, and sizes above limits.
+class SnapshotAssembler {
+  public:
+    explicit SnapshotAssembler(std::size_t max_raw_bytes) : max_raw_bytes_(max_raw_bytes) {}
+
+    /// Errors: kOutOfRange (sizes above the limit), kBadFormat (no chunks).
+    Status begin(const pb::SnapshotBegin& begin);
+    /// Errors: kBadFormat (no begin, wrong index, more bytes than announced).
+    Status add(const pb::SnapshotChunk& chunk);
+    bool active() const { return active_; }
+    bool complete() const { return active_ && next_chunk_ == chunk_count_; }
+    /// Decompresses and decodes (every core check); the result's seq and hash must equal the
+    /// announced ones (kHashMismatch otherwise). Resets the assembler either way.
+    Result<DecodedSnapshot> finish();
+    void reset();
+
+  private:
+    std::size_t max_raw_bytes_;
+    bool active_ = false;
+    std::uint64_t seq_ = 0;
+    std::uint64_t world_hash_ = 0;
+    std::uint64_t raw_bytes_ = 0;
+    std::uint64_t compressed_bytes_ = 0;
+    std::uint32_t chunk_count_ = 0;
+    std::uint32_t next_chunk_ = 0;
+    std::vector<std::uint8_t> data_;
+};
+
+} // namespace terrain::wire

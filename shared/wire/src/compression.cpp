@@ -1,0 +1,46 @@
+#include <terrain/wire/compression.h>
+
+#include <terrain/assert.h>
+
+#include <string>
+#include <zstd.h>
+
+namespace terrain::wire {
+
+std::vector<std::uint8_t> compress(std::span<const std::uint8_t> raw, int level) {
+    std::vector<std::uint8_t> out(ZSTD_compressBound(raw.size()));
+    const std::size_t n = ZSTD_compress(out.data(), out.size(), raw.data(), raw.size(), level);
+    TERRAIN_ASSERT(!ZSTD_isError(n)); // only fails on a too-small output, which Bound prevents
+    out.resize(n);
+    return out;
+}
+
+Result<std::vector<std::uint8_t>> decompress(
+    std::span<const std::uint8_t> compressed,
+    std::size_t expected_raw_bytes,
+    std::size_t max_raw_bytes) {
+    if (expected_raw_bytes > max_raw_bytes)
+        return makeError(
+            ErrorCode::kOutOfRange, "declared size of " + std::to_string(expected_raw_bytes) +
+                                        " bytes is above the limit of " +
+                                        std::to_string(max_raw_bytes));
+    const unsigned long long content = ZSTD_getFrameContentSize(compressed.data(), compressed.size());
+    if (content == ZSTD_CONTENTSIZE_ERROR || content == ZSTD_CONTENTSIZE_UNKNOWN)
+        return makeError(ErrorCode::kBadFormat, "not a zstd frame with a declared content size");
+    if (content != expected_raw_bytes)
+        return makeError(
+            ErrorCode::kSizeMismatch, "zstd content size " + std::to_string(content) +
+                                          " differs from the declared " +
+                                          std::to_string(expected_raw_bytes) + " bytes");
+    std::vector<std::uint8_t> out(expected_raw_bytes);
+    const std::size_t n =
+        ZSTD_decompress(out.data(), out.size(), compressed.data(), compressed.size());
+    if (ZSTD_isError(n))
+        return makeError(
+            ErrorCode::kBadFormat, std::string("zstd: ") + ZSTD_getErrorName(n));
+    if (n != expected_raw_bytes)
+        return makeError(ErrorCode::kSizeMismatch, "zstd frame decompressed to the wrong size");
+    return out;
+}
+
+} // namespace terrain::wire

@@ -1,0 +1,113 @@
+#include <terrain/wire/snapshot_stream.h>
+
+#include <terrain/wire/compression.h>
+
+#include <algorithm>
+#include <string>
+
+namespace terrain::wire {
+
+std::size_t SnapshotFrames::totalBytes() const {
+    std::size_t n = 0;
+    for (const Frame& f : frames)
+        n += f->size();
+    return n;
+}
+
+SnapshotFrames buildSnapshotFrames(const Terrain& terrain, std::uint64_t seq, std::size_t chunk_bytes) {
+    const std::vector<std::uint8_t> raw = encodeSnapshot(terrain, seq);
+    const std::vector<std::uint8_t> compressed = compress(raw);
+    chunk_bytes = std::max<std::size_t>(chunk_bytes, 1);
+    const std::size_t chunks = (compressed.size() + chunk_bytes - 1) / chunk_bytes;
+
+    SnapshotFrames out;
+    out.seq = seq;
+    out.world_hash = terrain.worldHash();
+    out.raw_bytes = raw.size();
+    out.compressed_bytes = compressed.size();
+    pb::Envelope envelope;
+    pb::SnapshotBegin* begin = envelope.mutable_snapshot_begin();
+    begin->set_seq(seq);
+    begin->set_world_hash(out.world_hash);
+    begin->set_raw_bytes(raw.size());
+    begin->set_compressed_bytes(compressed.size());
+    begin->set_chunk_count(static_cast<std::uint32_t>(chunks));
+    out.frames.push_back(encodeFrame(envelope));
+    for (std::size_t i = 0; i < chunks; ++i) {
+        pb::Envelope chunk_envelope;
+        pb::SnapshotChunk* chunk = chunk_envelope.mutable_snapshot_chunk();
+        chunk->set_index(static_cast<std::uint32_t>(i));
+        const std::size_t at = i * chunk_bytes;
+        const std::size_t n = std::min(chunk_bytes, compressed.size() - at);
+        chunk->set_data(compressed.data() + at, n);
+        out.frames.push_back(encodeFrame(chunk_envelope));
+    }
+    return out;
+}
+
+void SnapshotAssembler::reset() {
+    active_ = false;
+    next_chunk_ = 0;
+    chunk_count_ = 0;
+    data_.clear();
+    data_.shrink_to_fit();
+}
+
+Status SnapshotAssembler::begin(const pb::SnapshotBegin& begin) {
+    reset();
+    if (begin.raw_bytes() > max_raw_bytes_ || begin.compressed_bytes() > max_raw_bytes_)
+        return makeError(
+            ErrorCode::kOutOfRange, "snapshot of " + std::to_string(begin.raw_bytes()) +
+                                        " bytes is above the client's limit of " +
+                                        std::to_string(max_raw_bytes_));
+    if (begin.chunk_count() == 0 || begin.compressed_bytes() == 0)
+        return makeError(ErrorCode::kBadFormat, "snapshot announces no chunks");
+    active_ = true;
+    seq_ = begin.seq();
+    world_hash_ = begin.world_hash();
+    raw_bytes_ = begin.raw_bytes();
+    compressed_bytes_ = begin.compressed_bytes();
+    chunk_count_ = begin.chunk_count();
+    data_.reserve(static_cast<std::size_t>(compressed_bytes_));
+    return Ok{};
+}
+
+Status SnapshotAssembler::add(const pb::SnapshotChunk& chunk) {
+    if (!active_)
+        return makeError(ErrorCode::kBadFormat, "snapshot chunk without a SnapshotBegin");
+    if (chunk.index() != next_chunk_ || next_chunk_ >= chunk_count_)
+        return makeError(
+            ErrorCode::kBadFormat, "snapshot chunk " + std::to_string(chunk.index()) +
+                                       " arrived where chunk " + std::to_string(next_chunk_) +
+                                       " of " + std::to_string(chunk_count_) + " was expected");
+    if (data_.size() + chunk.data().size() > compressed_bytes_)
+        return makeError(ErrorCode::kBadFormat, "snapshot chunks carry more than announced");
+    data_.insert(data_.end(), chunk.data().begin(), chunk.data().end());
+    ++next_chunk_;
+    if (next_chunk_ == chunk_count_ && data_.size() != compressed_bytes_)
+        return makeError(ErrorCode::kBadFormat, "snapshot chunks carry less than announced");
+    return Ok{};
+}
+
+Result<DecodedSnapshot> SnapshotAssembler::finish() {
+    if (!complete()) {
+        reset();
+        return makeError(ErrorCode::kTruncated, "snapshot finished before its last chunk");
+    }
+    Result<std::vector<std::uint8_t>> raw =
+        decompress(data_, static_cast<std::size_t>(raw_bytes_), max_raw_bytes_);
+    const std::uint64_t seq = seq_;
+    const std::uint64_t hash = world_hash_;
+    reset();
+    if (!raw)
+        return raw.error();
+    Result<DecodedSnapshot> decoded = decodeSnapshot(*raw);
+    if (!decoded)
+        return decoded.error();
+    if (decoded->sequence != seq || decoded->terrain.worldHash() != hash)
+        return makeError(
+            ErrorCode::kHashMismatch, "snapshot content disagrees with its announced seq/hash");
+    return decoded;
+}
+
+} // namespace terrain::wire

@@ -1,0 +1,361 @@
+// Server + clients over real loopback TCP: convergence, joins, reconnects, slow readers, bad
+// peers, repair. Each test builds its own server on an ephemeral port.
+
+#include "support/net_harness.h"
+
+#include <terrain/surface_query.h>
+
+#include <algorithm>
+#include <random>
+
+namespace terrain::testing {
+namespace {
+
+namespace pb = wire::pb;
+using server::Role;
+
+OpRequest randomCrater(std::mt19937_64& rng, const WorldSpec& spec) {
+    const double extent = static_cast<double>(spec.spacing) / spec.units_per_metre * spec.cellsX();
+    std::uniform_real_distribution<double> pos(2.0, extent - 2.0);
+    std::uniform_real_distribution<double> radius(1.0, 6.0);
+    std::uniform_real_distribution<double> depth(0.2, 2.0);
+    std::uniform_int_distribution<int> kind(1, 4);
+    OpRequest r;
+    r.kind = static_cast<OpKind>(kind(rng));
+    r.x = pos(rng);
+    r.y = pos(rng);
+    r.radius = radius(rng);
+    r.height = r.kind == OpKind::kFlatten ? 40.0 : r.kind == OpKind::kSmooth ? 0.0 : depth(rng);
+    r.strength = r.kind == OpKind::kRaise ? 1.0 : 0.5;
+    return r;
+}
+
+server::ServerConfig fastConfig() {
+    server::ServerConfig c;
+    c.deform_rate_per_second = 1e6;
+    c.deform_burst = 1e6;
+    return c;
+}
+
+bool allAt(std::vector<std::unique_ptr<TestClient>>& clients, std::uint64_t seq, std::uint64_t hash) {
+    for (auto& c : clients)
+        if (!c->replica.ready() || c->replica.seq() != seq || c->replica.worldHash() != hash)
+            return false;
+    return true;
+}
+
+TEST(Session, ClientsConvergeAfterOpsFromSeveralDeformers) {
+    TestServer srv(smallMap(), fastConfig());
+    asio::io_context io;
+    std::vector<std::unique_ptr<TestClient>> clients;
+    for (int i = 0; i < 3; ++i)
+        clients.push_back(std::make_unique<TestClient>(io, srv.port(), token(10 + i, Role::kDeformer)));
+    for (int i = 0; i < 5; ++i)
+        clients.push_back(std::make_unique<TestClient>(io, srv.port(), token(20 + i, Role::kViewer)));
+    ASSERT_TRUE(runUntil(io, [&] { return allAt(clients, 0, srv.worldHash()); }));
+
+    std::mt19937_64 rng(7);
+    const WorldSpec spec = clients[0]->replica.terrain().spec();
+    for (int round = 0; round < 40; ++round)
+        for (int d = 0; d < 3; ++d)
+            clients[static_cast<std::size_t>(d)]->connection->requestDeform(randomCrater(rng, spec));
+    ASSERT_TRUE(runUntil(io, [&] {
+        std::size_t answered = 0;
+        for (int d = 0; d < 3; ++d)
+            answered += clients[static_cast<std::size_t>(d)]->answers.size();
+        return answered == 120;
+    }));
+    std::size_t accepted = 0;
+    for (int d = 0; d < 3; ++d)
+        for (const auto& a : clients[static_cast<std::size_t>(d)]->answers)
+            accepted += a.accepted ? 1 : 0;
+    EXPECT_EQ(accepted, 120u) << clients[0]->answers[0].reason;
+    const std::uint64_t seq = srv.seq();
+    EXPECT_EQ(seq, accepted);
+    const std::uint64_t hash = srv.worldHash();
+    ASSERT_TRUE(runUntil(io, [&] { return allAt(clients, seq, hash); }));
+    for (auto& c : clients) {
+        EXPECT_EQ(c->replica.stats().hash_mismatches, 0u);
+        EXPECT_EQ(c->replica.stats().snapshots, 1u);
+        EXPECT_EQ(c->replica.terrain().computeWorldHash(), hash);
+        EXPECT_FALSE(c->replica.peekDirty().tiles.empty());
+    }
+}
+
+TEST(Session, LateJoinGetsSnapshotThenLiveOps) {
+    TestServer srv(smallMap(), fastConfig());
+    asio::io_context io;
+    std::vector<std::unique_ptr<TestClient>> clients;
+    clients.push_back(std::make_unique<TestClient>(io, srv.port(), token(1, Role::kDeformer)));
+    ASSERT_TRUE(runUntil(io, [&] { return clients[0]->replica.ready(); }));
+    std::mt19937_64 rng(11);
+    const WorldSpec spec = clients[0]->replica.terrain().spec();
+    for (int i = 0; i < 30; ++i)
+        clients[0]->connection->requestDeform(randomCrater(rng, spec));
+    ASSERT_TRUE(runUntil(io, [&] { return clients[0]->answers.size() == 30; }));
+    clients.push_back(std::make_unique<TestClient>(io, srv.port(), token(2, Role::kViewer)));
+    ASSERT_TRUE(runUntil(io, [&] { return allAt(clients, srv.seq(), srv.worldHash()); }));
+    EXPECT_GT(clients[1]->replica.seq(), 0u);
+    for (int i = 0; i < 10; ++i)
+        clients[0]->connection->requestDeform(randomCrater(rng, spec));
+    ASSERT_TRUE(runUntil(io, [&] { return clients[0]->answers.size() == 40; }));
+    ASSERT_TRUE(runUntil(io, [&] { return allAt(clients, srv.seq(), srv.worldHash()); }));
+    EXPECT_GT(clients[1]->replica.stats().ops_applied, 0u);
+}
+
+// returns the number of ops applied while `viewer` was away
+void reconnectScenario(std::size_t log_capacity, int missed_ops, bool expect_resume) {
+    server::ServerConfig config = fastConfig();
+    config.op_log_capacity = log_capacity;
+    TestServer srv(smallMap(), config);
+    asio::io_context io;
+    TestClient deformer(io, srv.port(), token(1, Role::kDeformer));
+    client::Replica kept; // the viewer's replica survives its connection
+    auto connectViewer = [&] {
+        client::ConnectionConfig cc;
+        cc.port = srv.port();
+        cc.token = token(2, Role::kViewer);
+        auto c = std::make_shared<client::Connection>(io, cc, kept);
+        c->start();
+        return c;
+    };
+    auto viewer = connectViewer();
+    std::mt19937_64 rng(3);
+    ASSERT_TRUE(runUntil(io, [&] { return deformer.replica.ready() && kept.ready(); }));
+    const WorldSpec spec = kept.terrain().spec();
+    for (int i = 0; i < 5; ++i)
+        deformer.connection->requestDeform(randomCrater(rng, spec));
+    ASSERT_TRUE(runUntil(io, [&] { return kept.seq() == 5; }));
+    viewer->stop();
+    for (int i = 0; i < missed_ops; ++i)
+        deformer.connection->requestDeform(randomCrater(rng, spec));
+    ASSERT_TRUE(runUntil(io, [&] { return deformer.answers.size() == 5u + missed_ops; }));
+    EXPECT_EQ(kept.seq(), 5u);
+    viewer = connectViewer();
+    ASSERT_TRUE(runUntil(io, [&] {
+        return kept.seq() == srv.seq() && kept.worldHash() == srv.worldHash();
+    }));
+    EXPECT_EQ(viewer->stats().resumes, expect_resume ? 1u : 0u);
+    EXPECT_EQ(viewer->stats().snapshots, expect_resume ? 0u : 1u);
+    EXPECT_EQ(kept.stats().snapshots, expect_resume ? 1u : 2u);
+    viewer->stop();
+}
+
+TEST(Session, ReconnectWithinRetainedLogGetsOnlyMissedOps) { reconnectScenario(64, 20, true); }
+
+TEST(Session, ReconnectBeyondRetainedLogGetsSnapshot) { reconnectScenario(16, 40, false); }
+
+TEST(Session, ReaderThatStopsReadingIsResyncedThenDisconnectedWithoutHurtingOthers) {
+    server::ServerConfig config = fastConfig();
+    config.outbound_budget_bytes = 8 << 10;
+    config.socket_send_buffer_bytes = 8 << 10;
+    config.snapshot_cache_max_lag = 1u << 30;
+    TestServer srv(smallMap(129), config);
+    RawPeer stalled(srv.port(), 4096);
+    stalled.sendHello(token(9, Role::kViewer)); // and then never reads
+    asio::io_context io;
+    std::vector<std::unique_ptr<TestClient>> clients;
+    clients.push_back(std::make_unique<TestClient>(io, srv.port(), token(1, Role::kDeformer)));
+    clients.push_back(std::make_unique<TestClient>(io, srv.port(), token(2, Role::kViewer)));
+    ASSERT_TRUE(runUntil(io, [&] { return allAt(clients, 0, srv.worldHash()); }));
+    std::mt19937_64 rng(5);
+    const WorldSpec spec = clients[0]->replica.terrain().spec();
+    std::size_t sent = 0;
+    ASSERT_TRUE(runUntil(
+        io,
+        [&] {
+            if (clients[0]->answers.size() == sent && sent < 3000) {
+                for (int i = 0; i < 50; ++i)
+                    clients[0]->connection->requestDeform(randomCrater(rng, spec));
+                sent += 50;
+            }
+            return srv.stats().slow_disconnects == 1;
+        },
+        60.0));
+    const server::ServerStats stats = srv.stats();
+    EXPECT_GE(stats.resyncs, 1u);
+    EXPECT_EQ(stats.slow_disconnects, 1u);
+    ASSERT_TRUE(runUntil(io, [&] { return clients[0]->answers.size() == sent; }));
+    ASSERT_TRUE(runUntil(io, [&] { return allAt(clients, srv.seq(), srv.worldHash()); }));
+    for (auto& c : clients) {
+        EXPECT_EQ(c->replica.stats().snapshots, 1u); // the healthy ones never needed a resync
+        EXPECT_EQ(c->connection->stats().disconnects, 0u);
+    }
+    // memory went back: nothing is queued for the stalled peer any more
+    EXPECT_LT(srv.call([&] { return srv.server().queuedBytes(); }), std::size_t{1} << 20);
+}
+
+struct AbuseCase {
+    const char* name;
+    std::function<void(RawPeer&)> act;
+    pb::Reason expected;
+};
+
+TEST(Session, BadPeersGetAStatedReasonAndOthersAreUnaffected) {
+    TestServer srv(smallMap(129), fastConfig());
+    asio::io_context io;
+    TestClient good(io, srv.port(), token(1, Role::kDeformer));
+    ASSERT_TRUE(runUntil(io, [&] { return good.replica.ready(); }));
+
+    const std::vector<AbuseCase> cases = {
+        {"oversize frame", [](RawPeer& p) { p.sendBytes({0x80, 0x80, 0x80, 0x08}); },
+         pb::REASON_FRAME_TOO_LARGE},
+        {"over-long prefix", [](RawPeer& p) { p.sendBytes({0x81, 0x80, 0x80, 0x80, 0x80, 0x01}); },
+         pb::REASON_BAD_FRAME},
+        {"garbage body", [](RawPeer& p) { p.sendBytes({0x05, 0xff, 0xff, 0xff, 0xff, 0xff}); },
+         pb::REASON_BAD_FRAME},
+        {"zero-length frame", [](RawPeer& p) { p.sendBytes({0x00}); }, pb::REASON_BAD_FRAME},
+        {"wrong version", [](RawPeer& p) { p.sendHello(token(2, Role::kViewer), 2); },
+         pb::REASON_BAD_VERSION},
+        {"bad token", [](RawPeer& p) { p.sendHello("v1.2.viewer.99999999999.00"); },
+         pb::REASON_BAD_TOKEN},
+        {"forged token",
+         [](RawPeer& p) {
+             const std::string other = "another-secret-of-enough-length";
+             p.sendHello(server::mintToken(
+                 {2, Role::kAdmin, unixNow() + 60},
+                 std::vector<std::uint8_t>(other.begin(), other.end())));
+         },
+         pb::REASON_BAD_TOKEN},
+        {"expired token", [](RawPeer& p) { p.sendHello(token(2, Role::kDeformer, -10)); },
+         pb::REASON_BAD_TOKEN},
+        {"request before hello",
+         [](RawPeer& p) {
+             pb::Envelope e;
+             e.mutable_height_query()->set_x(1);
+             p.send(e);
+         },
+         pb::REASON_PROTOCOL},
+        {"server-only message",
+         [](RawPeer& p) {
+             p.sendHello(token(2, Role::kViewer));
+             pb::Envelope e;
+             e.mutable_op_applied()->set_seq(1);
+             p.send(e);
+         },
+         pb::REASON_PROTOCOL},
+        {"repair of a tile outside the map",
+         [](RawPeer& p) {
+             p.sendHello(token(2, Role::kViewer));
+             pb::Envelope e;
+             e.mutable_repair_request()->add_tiles(100000);
+             p.send(e);
+         },
+         pb::REASON_OUT_OF_RANGE},
+    };
+    for (const AbuseCase& c : cases) {
+        RawPeer peer(srv.port());
+        c.act(peer);
+        std::string message;
+        EXPECT_EQ(peer.readUntilDisconnect(10.0, &message), c.expected) << c.name;
+        EXPECT_FALSE(message.empty()) << c.name;
+    }
+    {
+        // truncated frame, then the peer goes away: the session just ends
+        RawPeer peer(srv.port());
+        peer.sendBytes({0x20, 0x01, 0x02});
+    }
+    // the well-behaved client kept working throughout
+    const std::uint64_t before = srv.seq();
+    good.connection->requestDeform(OpRequest{OpKind::kCrater, 30, 30, 3, 1, 0.3});
+    ASSERT_TRUE(runUntil(io, [&] { return good.replica.seq() == before + 1; }));
+    EXPECT_EQ(good.connection->stats().disconnects, 0u);
+    EXPECT_GE(srv.stats().bad_tokens, 3u);
+}
+
+TEST(Session, RefusalsAndRateLimitsAffectOnlyTheRequest) {
+    server::ServerConfig config;
+    config.deform_rate_per_second = 1;
+    config.deform_burst = 3;
+    TestServer srv(smallMap(129), config);
+    asio::io_context io;
+    TestClient viewer(io, srv.port(), token(1, Role::kViewer));
+    TestClient deformer(io, srv.port(), token(2, Role::kDeformer));
+    ASSERT_TRUE(runUntil(io, [&] { return viewer.replica.ready() && deformer.replica.ready(); }));
+    viewer.connection->requestDeform(OpRequest{OpKind::kCrater, 30, 30, 3, 1, 0.3});
+    deformer.connection->requestDeform(OpRequest{OpKind::kCrater, 1e9, 30, 3, 1, 0.3});
+    deformer.connection->requestDeform(OpRequest{OpKind::kCrater, 30, 30, -3, 1, 0.3});
+    deformer.connection->requestDeform(OpRequest{OpKind::kCrater, 30, 30, 3, 1, 0.3});
+    deformer.connection->requestDeform(OpRequest{OpKind::kCrater, 40, 30, 3, 1, 0.3});
+    ASSERT_TRUE(runUntil(io, [&] { return viewer.answers.size() == 1 && deformer.answers.size() == 4; }));
+    // refusals are answered at once, acceptances after the group commit: order by request id
+    std::sort(deformer.answers.begin(), deformer.answers.end(), [](const auto& a, const auto& b) {
+        return a.request_id < b.request_id;
+    });
+    EXPECT_FALSE(viewer.answers[0].accepted);
+    EXPECT_NE(viewer.answers[0].reason.find("REASON_NOT_PERMITTED"), std::string::npos);
+    EXPECT_NE(deformer.answers[0].reason.find("REASON_OUTSIDE_MAP"), std::string::npos);
+    EXPECT_NE(deformer.answers[1].reason.find("REASON_OUT_OF_RANGE"), std::string::npos);
+    EXPECT_TRUE(deformer.answers[2].accepted) << deformer.answers[2].reason;
+    EXPECT_EQ(deformer.answers[2].seq, 1u);
+    EXPECT_NE(deformer.answers[3].reason.find("REASON_RATE_LIMITED"), std::string::npos);
+    ASSERT_TRUE(runUntil(io, [&] { return viewer.replica.seq() == 1; }));
+    EXPECT_EQ(viewer.connection->stats().disconnects, 0u);
+    EXPECT_EQ(deformer.connection->stats().disconnects, 0u);
+}
+
+TEST(Session, ForcedHashMismatchIsRepairedByTileRequest) {
+    TestServer srv(smallMap(), fastConfig());
+    asio::io_context io;
+    TestClient deformer(io, srv.port(), token(1, Role::kDeformer));
+    TestClient victim(io, srv.port(), token(2, Role::kViewer));
+    ASSERT_TRUE(runUntil(io, [&] { return deformer.replica.ready() && victim.replica.ready(); }));
+    // corrupt the victim far from where the server's next op lands
+    ASSERT_TRUE(victim.replica.terrainForTesting()
+                    .apply(*quantizeOp({OpKind::kRaise, 200, 200, 8, 2, 1}, victim.replica.terrain().spec()))
+                    .ok());
+    ASSERT_NE(victim.replica.worldHash(), srv.worldHash());
+    deformer.connection->requestDeform(OpRequest{OpKind::kCrater, 20, 20, 3, 1, 0.3});
+    ASSERT_TRUE(runUntil(io, [&] {
+        return victim.replica.seq() == 1 && !victim.replica.diverged() &&
+               victim.replica.worldHash() == srv.worldHash();
+    }));
+    EXPECT_EQ(victim.replica.stats().hash_mismatches, 1u);
+    EXPECT_EQ(victim.replica.stats().repairs, 1u);
+    EXPECT_EQ(victim.replica.stats().snapshots, 1u); // repaired by tiles, not a new snapshot
+    EXPECT_GE(victim.connection->stats().repair_requests, 2u); // op tiles, then the corrupt one
+    EXPECT_EQ(victim.replica.terrain().computeWorldHash(), srv.worldHash());
+}
+
+TEST(Session, HeightAndRayQueriesMatchTheReplica) {
+    TestServer srv(smallMap(), fastConfig());
+    asio::io_context io;
+    TestClient c(io, srv.port(), token(1, Role::kDeformer));
+    ASSERT_TRUE(runUntil(io, [&] { return c.replica.ready(); }));
+    c.connection->requestDeform(OpRequest{OpKind::kCrater, 100, 100, 4, 1.5, 0.3});
+    ASSERT_TRUE(runUntil(io, [&] { return c.replica.seq() == 1; }));
+    std::vector<client::HeightAnswer> heights;
+    std::vector<client::RayAnswer> rays;
+    c.connection->on_height_reply = [&](const client::HeightAnswer& a) { heights.push_back(a); };
+    c.connection->on_ray_reply = [&](const client::RayAnswer& a) { rays.push_back(a); };
+    c.connection->queryHeight(100.3, 99.1);
+    c.connection->queryHeight(-5, 3);
+    const double origin[3] = {90, 90, 200};
+    const double dir[3] = {0.1, 0.1, -1};
+    c.connection->castRay(origin, dir, 1000);
+    const double bad[3] = {0, 0, std::numeric_limits<double>::quiet_NaN()};
+    c.connection->castRay(origin, bad, 1000);
+    ASSERT_TRUE(runUntil(io, [&] { return heights.size() == 2 && rays.size() == 2; }));
+    EXPECT_TRUE(heights[0].inside);
+    EXPECT_DOUBLE_EQ(heights[0].height, surfaceHeight(c.replica.terrain(), 100.3, 99.1));
+    EXPECT_FALSE(heights[1].inside);
+    const auto local = castRay(c.replica.terrain(), {90, 90, 200}, {0.1, 0.1, -1}, 1000);
+    ASSERT_TRUE(local.has_value());
+    ASSERT_TRUE(rays[0].hit);
+    EXPECT_DOUBLE_EQ(rays[0].point[2], local->point.z);
+    EXPECT_NE(rays[1].refused.find("REASON_OUT_OF_RANGE"), std::string::npos);
+}
+
+TEST(Session, HealthRequestAnswersWithoutAToken) {
+    TestServer srv(smallMap(129), fastConfig());
+    RawPeer peer(srv.port());
+    pb::Envelope e;
+    e.mutable_health_request();
+    peer.send(e);
+    peer.readUntilDisconnect(0.5);
+    ASSERT_EQ(peer.received.size(), 1u);
+    EXPECT_EQ(peer.received[0], pb::Envelope::kHealthReply);
+}
+
+} // namespace
+} // namespace terrain::testing

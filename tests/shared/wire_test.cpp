@@ -1,0 +1,212 @@
+// Framing, codec and snapshot streaming, byte-level.
+
+#include "support/terrain_builders.h"
+
+#include <terrain/procedural_map.h>
+#include <terrain/wire/codec.h>
+#include <terrain/wire/compression.h>
+#include <terrain/wire/framing.h>
+#include <terrain/wire/snapshot_stream.h>
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace terrain::wire {
+namespace {
+
+TEST(Framing, SplitsAStreamFedOneByteAtATime) {
+    std::vector<std::uint8_t> stream;
+    std::vector<std::size_t> sizes = {1, 127, 128, 300, 16383, 16384, 70000};
+    for (std::size_t n : sizes) {
+        appendFramePrefix(n, stream);
+        for (std::size_t i = 0; i < n; ++i)
+            stream.push_back(static_cast<std::uint8_t>(n + i));
+    }
+    FrameReader reader(1 << 20);
+    std::vector<std::size_t> got;
+    for (std::uint8_t b : stream) {
+        reader.feed({&b, 1});
+        auto f = reader.next();
+        ASSERT_TRUE(f.ok());
+        if (f->has_value()) {
+            got.push_back((*f)->size());
+            EXPECT_EQ((**f)[0], static_cast<std::uint8_t>((*f)->size()));
+        }
+    }
+    EXPECT_EQ(got, sizes);
+    EXPECT_EQ(reader.buffered(), 0u);
+}
+
+TEST(Framing, RefusesOversizeBeforeBufferingTheBody) {
+    FrameReader reader(1000);
+    std::vector<std::uint8_t> bytes;
+    appendFramePrefix(1001, bytes);
+    reader.feed(bytes);
+    auto f = reader.next();
+    ASSERT_FALSE(f.ok());
+    EXPECT_EQ(f.error().code, ErrorCode::kOutOfRange);
+    EXPECT_NE(f.error().message.find("limit"), std::string::npos);
+    // a huge claim is refused on its first bytes, never allocated
+    FrameReader r2(1000);
+    const std::uint8_t huge[] = {0xff, 0xff};
+    r2.feed(huge);
+    EXPECT_FALSE(r2.next().ok());
+    EXPECT_LT(r2.buffered(), 8u);
+}
+
+TEST(Framing, RefusesLongPrefixAndEmptyFrames) {
+    FrameReader reader(kMaxFrameBytesLimit);
+    const std::uint8_t longer[] = {0x80, 0x80, 0x80, 0x80, 0x80, 0x00};
+    reader.feed(longer);
+    auto f = reader.next();
+    ASSERT_FALSE(f.ok());
+    FrameReader r2;
+    const std::uint8_t zero[] = {0x00};
+    r2.feed(zero);
+    ASSERT_FALSE(r2.next().ok());
+    EXPECT_EQ(r2.next().error().code, ErrorCode::kBadFormat);
+}
+
+TEST(Codec, OpRoundTripsAndCraterBroadcastFitsIn32Bytes) {
+    DeformOp op;
+    op.kind = OpKind::kCrater;
+    op.center_x = 812 * 1024 + 300;
+    op.center_y = 97 * 1024 + 5;
+    op.radius = 4 * 1024;
+    op.height = 1536;
+    op.strength = kUnitStrength;
+    pb::Envelope e;
+    opToWire(op, 1'500'000, 0x0123456789abcdefULL, *e.mutable_op_applied());
+    std::vector<std::uint8_t> frame;
+    appendFrame(e, frame);
+    EXPECT_LE(frame.size(), 32u);
+    FrameReader reader;
+    reader.feed(frame);
+    auto body = reader.next();
+    ASSERT_TRUE(body.ok() && body->has_value());
+    auto decoded = decodeEnvelope(**body);
+    ASSERT_TRUE(decoded.ok());
+    auto back = opFromWire(decoded->op_applied());
+    ASSERT_TRUE(back.ok());
+    EXPECT_EQ(*back, op);
+    EXPECT_EQ(decoded->op_applied().seq(), 1'500'000u);
+    // every kind and a non-default strength round trip too
+    for (OpKind k : {OpKind::kRaise, OpKind::kFlatten, OpKind::kSmooth}) {
+        op.kind = k;
+        op.strength = 12345;
+        op.height = -77;
+        pb::Op w;
+        opToWire(op, w);
+        EXPECT_EQ(*opFromWire(w), op);
+    }
+}
+
+TEST(Codec, RefusesOpsThatDoNotFitTheCoreTypes) {
+    pb::Op w;
+    w.set_kind(4);
+    EXPECT_EQ(opFromWire(w).error().code, ErrorCode::kUnsupported);
+    w.set_kind(0);
+    w.set_center_x(~0ull);
+    EXPECT_EQ(opFromWire(w).error().code, ErrorCode::kOutsideMap);
+    w.set_center_x(0);
+    w.set_radius(0x80000000u);
+    EXPECT_EQ(opFromWire(w).error().code, ErrorCode::kOutOfRange);
+    w.set_radius(1);
+    w.set_strength_minus_unit(std::numeric_limits<std::int32_t>::max());
+    EXPECT_EQ(opFromWire(w).error().code, ErrorCode::kOutOfRange);
+    EXPECT_FALSE(decodeEnvelope(std::vector<std::uint8_t>{0xff, 0xff, 0xff}).ok());
+    // a valid but empty envelope names the problem
+    auto empty = decodeEnvelope(std::vector<std::uint8_t>{0x08, 0x01}); // unknown-less garbage
+    EXPECT_FALSE(empty.ok());
+}
+
+TEST(Compression, RefusesLiesAboutSize) {
+    std::vector<std::uint8_t> raw(10000, 7);
+    auto c = compress(raw);
+    EXPECT_TRUE(decompress(c, raw.size(), raw.size()).ok());
+    EXPECT_EQ(decompress(c, raw.size() + 1, 1 << 20).error().code, ErrorCode::kSizeMismatch);
+    EXPECT_EQ(decompress(c, raw.size(), 100).error().code, ErrorCode::kOutOfRange);
+    c[c.size() / 2] ^= 0x55;
+    c.resize(c.size() - 3);
+    EXPECT_FALSE(decompress(c, raw.size(), raw.size()).ok());
+}
+
+Terrain craterMap() {
+    ProceduralMapOptions o;
+    o.width = 200;
+    o.height = 170;
+    Terrain t = std::move(*makeProceduralMap(o));
+    std::mt19937_64 rng(3);
+    for (int i = 0; i < 30; ++i) {
+        OpRequest r{OpKind::kCrater, 5.0 + static_cast<double>(rng() % 190), 5.0 + static_cast<double>(rng() % 160), 3, 1, 0.3};
+        EXPECT_TRUE(t.apply(*quantizeOp(r, t.spec())).ok());
+    }
+    return t;
+}
+
+TEST(SnapshotStream, ChunkedSnapshotReassemblesToTheSameWorld) {
+    Terrain t = craterMap();
+    SnapshotFrames frames = buildSnapshotFrames(t, 42, 4096);
+    ASSERT_GT(frames.frames.size(), 3u);
+    SnapshotAssembler a(1 << 26);
+    for (std::size_t i = 0; i < frames.frames.size(); ++i) {
+        FrameReader r(1 << 20);
+        r.feed(*frames.frames[i]);
+        auto env = decodeEnvelope(**r.next());
+        ASSERT_TRUE(env.ok());
+        if (i == 0)
+            ASSERT_TRUE(a.begin(env->snapshot_begin()).ok());
+        else
+            ASSERT_TRUE(a.add(env->snapshot_chunk()).ok());
+    }
+    ASSERT_TRUE(a.complete());
+    auto s = a.finish();
+    ASSERT_TRUE(s.ok()) << s.error().message;
+    EXPECT_EQ(s->sequence, 42u);
+    EXPECT_EQ(s->terrain.worldHash(), t.worldHash());
+    EXPECT_EQ(s->terrain.patchCount(), t.patchCount());
+}
+
+TEST(SnapshotStream, RefusesChunksOutOfOrderAndOversizeSnapshots) {
+    Terrain t = craterMap();
+    SnapshotFrames frames = buildSnapshotFrames(t, 1, 4096);
+    std::vector<pb::Envelope> envs;
+    for (const Frame& f : frames.frames) {
+        FrameReader r(1 << 20);
+        r.feed(*f);
+        envs.push_back(*decodeEnvelope(**r.next()));
+    }
+    SnapshotAssembler small(1000);
+    EXPECT_EQ(small.begin(envs[0].snapshot_begin()).error().code, ErrorCode::kOutOfRange);
+    SnapshotAssembler a(1 << 26);
+    ASSERT_TRUE(a.begin(envs[0].snapshot_begin()).ok());
+    EXPECT_FALSE(a.add(envs[2].snapshot_chunk()).ok());
+    SnapshotAssembler b(1 << 26);
+    EXPECT_FALSE(b.add(envs[1].snapshot_chunk()).ok());
+    // a lying announced hash is caught after decoding
+    pb::SnapshotBegin lie = envs[0].snapshot_begin();
+    lie.set_world_hash(lie.world_hash() ^ 1);
+    SnapshotAssembler c(1 << 26);
+    ASSERT_TRUE(c.begin(lie).ok());
+    for (std::size_t i = 1; i < envs.size(); ++i)
+        ASSERT_TRUE(c.add(envs[i].snapshot_chunk()).ok());
+    EXPECT_EQ(c.finish().error().code, ErrorCode::kHashMismatch);
+}
+
+TEST(TileBlob, RoundTripsAndRefusesDisorder) {
+    Terrain t = craterMap();
+    const std::vector<std::int32_t> tiles = {0, 2, 5};
+    TileBlob blob = encodeTiles(t, tiles);
+    auto records = decodeTiles(blob.compressed, blob.raw_bytes, t.spec(), 16);
+    ASSERT_TRUE(records.ok()) << records.error().message;
+    ASSERT_EQ(records->size(), 3u);
+    EXPECT_EQ((*records)[2].tile, 5);
+    const std::vector<std::int32_t> disorder = {2, 0};
+    TileBlob bad = encodeTiles(t, disorder);
+    EXPECT_EQ(decodeTiles(bad.compressed, bad.raw_bytes, t.spec(), 16).error().code, ErrorCode::kBadFormat);
+    EXPECT_FALSE(decodeTiles(blob.compressed, blob.raw_bytes, t.spec(), 2).ok());
+}
+
+} // namespace
+} // namespace terrain::wire

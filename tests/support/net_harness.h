@@ -1,0 +1,223 @@
+#pragma once
+
+// Loopback harness: a real Server on its own io thread, clients on the test thread's io_context,
+// raw sockets for misbehaving peers. Everything goes through real TCP on 127.0.0.1.
+
+#include <terrain/client/connection.h>
+#include <terrain/client/replica.h>
+#include <terrain/procedural_map.h>
+#include <terrain/server/auth_token.h>
+#include <terrain/server/authority.h>
+#include <terrain/server/server.h>
+#include <terrain/wire/codec.h>
+#include <terrain/wire/framing.h>
+
+#include <asio.hpp>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <functional>
+#include <future>
+#include <memory>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace terrain::testing {
+
+inline const std::vector<std::uint8_t>& testSecret() {
+    static const std::vector<std::uint8_t> secret = [] {
+        const std::string s = "loopback-test-secret-0123456789";
+        return std::vector<std::uint8_t>(s.begin(), s.end());
+    }();
+    return secret;
+}
+
+inline std::int64_t unixNow() {
+    return std::chrono::duration_cast<std::chrono::seconds>(
+               std::chrono::system_clock::now().time_since_epoch())
+        .count();
+}
+
+inline std::string token(std::uint64_t player, server::Role role, std::int64_t ttl = 3600) {
+    return server::mintToken({player, role, unixNow() + ttl}, testSecret());
+}
+
+inline Terrain smallMap(int size = 257, std::uint64_t seed = 5) {
+    ProceduralMapOptions o;
+    o.seed = seed;
+    o.width = size;
+    o.height = size;
+    return std::move(*makeProceduralMap(o));
+}
+
+/// A server on its own thread. call() runs a function on the server thread and waits for it.
+class TestServer {
+  public:
+    explicit TestServer(
+        Terrain terrain,
+        server::ServerConfig config = {},
+        journal::Journal* journal = nullptr,
+        std::uint64_t seq = 0) {
+        config.token_secret = testSecret();
+        authority_ = std::make_unique<server::Authority>(std::move(terrain), seq, config.op_log_capacity);
+        server_ = std::make_unique<server::Server>(io_, config, *authority_, journal);
+        const Status s = server_->start();
+        EXPECT_TRUE(s.ok()) << (s ? "" : s.error().message);
+        work_.emplace(asio::make_work_guard(io_));
+        thread_ = std::thread([this] { io_.run(); });
+    }
+    ~TestServer() { stop(); }
+
+    template <typename F> auto call(F f) -> decltype(f()) {
+        std::packaged_task<decltype(f())()> task(std::move(f));
+        auto result = task.get_future();
+        asio::post(io_, [&task] { task(); });
+        return result.get();
+    }
+
+    void stop() {
+        if (!thread_.joinable())
+            return;
+        call([this] {
+            server_->shutdown([] {});
+            return 0;
+        });
+        work_.reset();
+        // give sessions their goodbye, then stop the loop
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        io_.stop();
+        thread_.join();
+    }
+
+    std::uint16_t port() const { return server_->port(); }
+    std::uint64_t seq() { return call([this] { return server_->broadcastSeq(); }); }
+    std::uint64_t worldHash() {
+        return call([this] { return authority_->terrain().worldHash(); });
+    }
+    server::ServerStats stats() { return call([this] { return server_->stats(); }); }
+    server::Authority& authority() { return *authority_; } // server thread only (call())
+    server::Server& server() { return *server_; }          // server thread only (call())
+
+  private:
+    asio::io_context io_{1};
+    std::unique_ptr<server::Authority> authority_;
+    std::unique_ptr<server::Server> server_;
+    std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work_;
+    std::thread thread_;
+};
+
+/// A client: replica + connection on the test thread's io_context.
+struct TestClient {
+    client::Replica replica;
+    std::shared_ptr<client::Connection> connection;
+    std::vector<client::DeformAnswer> answers;
+    std::vector<std::string> disconnects;
+
+    TestClient(asio::io_context& io, std::uint16_t port, std::string tok, bool reconnect = true) {
+        client::ConnectionConfig config;
+        config.port = port;
+        config.token = std::move(tok);
+        config.reconnect = reconnect;
+        config.reconnect_delay_seconds = 0.05;
+        connection = std::make_shared<client::Connection>(io, config, replica);
+        connection->on_deform_reply = [this](const client::DeformAnswer& a) { answers.push_back(a); };
+        connection->on_disconnect = [this](const std::string& why) { disconnects.push_back(why); };
+        connection->start();
+    }
+    ~TestClient() { connection->stop(); }
+};
+
+/// Runs `io` until `done()` or the timeout; returns done().
+inline bool runUntil(
+    asio::io_context& io, const std::function<bool()>& done, double timeout_seconds = 20.0) {
+    const auto deadline = std::chrono::steady_clock::now() +
+                          std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                              std::chrono::duration<double>(timeout_seconds));
+    while (!done()) {
+        if (std::chrono::steady_clock::now() > deadline)
+            return false;
+        io.restart();
+        io.run_for(std::chrono::milliseconds(5));
+    }
+    return true;
+}
+
+/// A blocking raw TCP peer for protocol abuse tests.
+class RawPeer {
+  public:
+    explicit RawPeer(std::uint16_t port, int receive_buffer = 0) : socket_(io_) {
+        socket_.open(asio::ip::tcp::v4());
+        if (receive_buffer > 0)
+            socket_.set_option(asio::socket_base::receive_buffer_size(receive_buffer));
+        socket_.connect({asio::ip::make_address("127.0.0.1"), port});
+    }
+    void sendBytes(const std::vector<std::uint8_t>& bytes) {
+        asio::error_code ec;
+        asio::write(socket_, asio::buffer(bytes), ec);
+    }
+    void send(const wire::pb::Envelope& envelope) {
+        std::vector<std::uint8_t> bytes;
+        wire::appendFrame(envelope, bytes);
+        sendBytes(bytes);
+    }
+    void sendHello(const std::string& tok, std::uint32_t version = wire::kProtocolVersion) {
+        wire::pb::Envelope e;
+        e.mutable_hello()->set_protocol_version(version);
+        e.mutable_hello()->set_token(tok);
+        send(e);
+    }
+    /// Reads frames until a Disconnect (its reason) or EOF/timeout (REASON_UNSPECIFIED).
+    wire::pb::Reason readUntilDisconnect(double timeout_seconds = 10.0, std::string* message = nullptr) {
+        wire::FrameReader reader(64 << 20);
+        const auto deadline = std::chrono::steady_clock::now() +
+                              std::chrono::milliseconds(static_cast<int>(timeout_seconds * 1000));
+        socket_.non_blocking(true);
+        while (std::chrono::steady_clock::now() < deadline) {
+            auto space = reader.prepare(1 << 16);
+            asio::error_code ec;
+            const std::size_t n = socket_.read_some(asio::buffer(space.data(), space.size()), ec);
+            if (ec == asio::error::would_block) {
+                std::this_thread::sleep_for(std::chrono::milliseconds(2));
+                continue;
+            }
+            if (ec)
+                return wire::pb::REASON_UNSPECIFIED;
+            reader.commit(n);
+            for (;;) {
+                auto frame = reader.next();
+                if (!frame || !frame->has_value())
+                    break;
+                auto env = wire::decodeEnvelope(**frame);
+                if (env && env->has_disconnect()) {
+                    if (message)
+                        *message = env->disconnect().message();
+                    return env->disconnect().reason();
+                }
+                if (env)
+                    received.push_back(env->body_case());
+            }
+        }
+        return wire::pb::REASON_UNSPECIFIED;
+    }
+    /// True when the server closed the connection (EOF) within the timeout.
+    bool closedByServer(double timeout_seconds = 10.0) {
+        return readUntilDisconnect(timeout_seconds) != wire::pb::REASON_UNSPECIFIED ||
+               eofSeen();
+    }
+    bool eofSeen() {
+        asio::error_code ec;
+        std::uint8_t b;
+        socket_.non_blocking(true);
+        socket_.read_some(asio::buffer(&b, 1), ec);
+        return ec == asio::error::eof || ec == asio::error::connection_reset;
+    }
+    std::vector<int> received;
+
+  private:
+    asio::io_context io_;
+    asio::ip::tcp::socket socket_;
+};
+
+} // namespace terrain::testing
