@@ -1,0 +1,172 @@
+// kill -9 of a real terrain-server process under load, then a restart on the same data
+// directory: every acknowledged op must be in the journal with the world hash the clients saw,
+// the restarted server must resume at (or after) the last acknowledged seq, and clients must
+// converge again.
+
+#include "support/net_harness.h"
+
+#include <terrain/journal/journal.h>
+#include <terrain/journal/record_codec.h>
+
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <random>
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace terrain::testing {
+namespace {
+
+namespace fs = std::filesystem;
+using server::Role;
+
+struct ServerProcess {
+    pid_t pid = -1;
+    std::uint16_t port = 0;
+};
+
+ServerProcess spawnServer(const fs::path& dir, const std::string& tag) {
+    const fs::path port_file = dir / ("port-" + tag);
+    fs::remove(port_file);
+    const std::string secret(testSecret().begin(), testSecret().end());
+    const std::string log = (dir / ("server-" + tag + ".log")).string();
+    const std::string data = (dir / "data").string();
+    const std::string port_path = port_file.string();
+    const pid_t pid = fork();
+    if (pid == 0) {
+        std::freopen(log.c_str(), "w", stdout);
+        std::freopen(log.c_str(), "a", stderr);
+        execl(TERRAIN_SERVER_BIN, TERRAIN_SERVER_BIN, "--token-secret", secret.c_str(), "serve",
+              "--bind", "127.0.0.1", "--port", "0", "--port-file", port_path.c_str(),
+              "--data-dir", data.c_str(), "--size", "129", "--durability", "fsync",
+              "--deform-rate", "100000", "--snapshot-every", "150", static_cast<char*>(nullptr));
+        _exit(127);
+    }
+    ServerProcess p;
+    p.pid = pid;
+    for (int i = 0; i < 1000 && p.port == 0; ++i) {
+        std::ifstream in(port_file);
+        int port = 0;
+        if (in >> port)
+            p.port = static_cast<std::uint16_t>(port);
+        else
+            std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return p;
+}
+
+/// Every record of every segment, in order (stops at a torn tail).
+std::map<std::uint64_t, journal::JournalRecord> readJournal(const fs::path& data) {
+    std::vector<fs::path> segments;
+    for (const auto& entry : fs::directory_iterator(data))
+        if (entry.path().extension() == ".tjl")
+            segments.push_back(entry.path());
+    std::sort(segments.begin(), segments.end());
+    std::map<std::uint64_t, journal::JournalRecord> records;
+    for (const fs::path& path : segments) {
+        std::ifstream in(path, std::ios::binary);
+        std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
+        for (std::size_t at = journal::kSegmentHeaderSize; at + journal::kRecordSize <= bytes.size();
+             at += journal::kRecordSize) {
+            auto r = journal::decodeRecord({bytes.data() + at, journal::kRecordSize});
+            if (!r)
+                break;
+            records[r->seq] = *r;
+        }
+    }
+    return records;
+}
+
+TEST(CrashRecovery, KillNineUnderLoadLosesNoAcknowledgedOp) {
+    const fs::path dir = fs::temp_directory_path() / ("terrain-crash-" + std::to_string(getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    ServerProcess proc = spawnServer(dir, "a");
+    ASSERT_NE(proc.port, 0) << "terrain-server did not start; see " << dir;
+
+    asio::io_context io;
+    auto deformer = std::make_unique<TestClient>(io, proc.port, token(1, Role::kDeformer), false);
+    auto viewer = std::make_unique<TestClient>(io, proc.port, token(2, Role::kViewer), false);
+    ASSERT_TRUE(runUntil(io, [&] { return deformer->replica.ready() && viewer->replica.ready(); }));
+    // the hash every client verified at each seq
+    std::map<std::uint64_t, std::uint64_t> seen;
+    viewer->connection->on_applied = [&](std::uint64_t seq) { seen[seq] = viewer->replica.worldHash(); };
+
+    std::mt19937_64 rng(21);
+    std::uniform_real_distribution<double> pos(3.0, 125.0);
+    std::size_t sent = 0;
+    // keep 16 requests in flight; kill once 300 are acknowledged, mid-stream
+    auto acked = [&] {
+        std::uint64_t n = 0;
+        for (const auto& a : deformer->answers)
+            n += a.accepted ? 1 : 0;
+        return n;
+    };
+    ASSERT_TRUE(runUntil(io, [&] {
+        while (sent < deformer->answers.size() + 16) {
+            deformer->connection->requestDeform(OpRequest{OpKind::kCrater, pos(rng), pos(rng), 2.5, 0.8, 0.3});
+            ++sent;
+        }
+        return acked() >= 300;
+    }, 60.0));
+    ASSERT_EQ(::kill(proc.pid, SIGKILL), 0);
+    int status = 0;
+    waitpid(proc.pid, &status, 0);
+    ASSERT_TRUE(WIFSIGNALED(status));
+    io.restart();
+    io.run_for(std::chrono::milliseconds(100)); // drain what was already on the wire
+
+    std::uint64_t max_acked = 0;
+    for (const auto& a : deformer->answers)
+        if (a.accepted)
+            max_acked = std::max(max_acked, a.seq);
+    ASSERT_GE(max_acked, 300u);
+
+    // every acknowledged op is in the journal, with the hash the clients verified
+    const auto records = readJournal(dir / "data");
+    for (std::uint64_t s = 1; s <= max_acked; ++s) {
+        auto it = records.find(s);
+        ASSERT_NE(it, records.end()) << "acknowledged seq " << s << " is not in the journal";
+        if (seen.count(s)) {
+            EXPECT_EQ(it->second.world_hash, seen[s]) << "seq " << s;
+        }
+    }
+    auto verified = journal::verifyJournal(dir / "data");
+    ASSERT_TRUE(verified.ok()) << verified.error().message;
+    EXPECT_GE(verified->last_seq, max_acked);
+
+    // restart on the same directory: the server resumes at the journal's last seq
+    ServerProcess again = spawnServer(dir, "b");
+    ASSERT_NE(again.port, 0) << "terrain-server did not restart; see " << dir;
+    client::Replica& kept = viewer->replica;
+    client::ConnectionConfig cc;
+    cc.port = again.port;
+    cc.token = token(2, Role::kViewer);
+    auto reconnected = std::make_shared<client::Connection>(io, cc, kept);
+    reconnected->start();
+    TestClient fresh(io, again.port, token(3, Role::kDeformer));
+    ASSERT_TRUE(runUntil(io, [&] { return fresh.replica.ready(); }));
+    EXPECT_EQ(fresh.replica.seq(), verified->last_seq);
+    EXPECT_EQ(fresh.replica.worldHash(), verified->final_hash);
+    // new ops after the restart reach both the resumed and the fresh client
+    fresh.connection->requestDeform(OpRequest{OpKind::kCrater, 60, 60, 3, 1, 0.3});
+    ASSERT_TRUE(runUntil(io, [&] {
+        return kept.seq() == verified->last_seq + 1 && fresh.replica.seq() == kept.seq() &&
+               kept.worldHash() == fresh.replica.worldHash();
+    }));
+    EXPECT_EQ(kept.stats().hash_mismatches, 0u);
+    reconnected->stop();
+    ::kill(again.pid, SIGTERM);
+    waitpid(again.pid, &status, 0);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "SIGTERM must drain cleanly";
+    // after a clean stop the journal still verifies, including the post-restart op
+    auto final_check = journal::verifyJournal(dir / "data");
+    ASSERT_TRUE(final_check.ok()) << final_check.error().message;
+    EXPECT_EQ(final_check->last_seq, verified->last_seq + 1);
+    fs::remove_all(dir);
+}
+
+} // namespace
+} // namespace terrain::testing
