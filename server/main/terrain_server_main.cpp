@@ -14,8 +14,8 @@
 #include <terrain/wire/framing.h>
 
 #include <CLI/CLI.hpp>
-#include <asio.hpp>
 
+#include <asio.hpp>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -124,8 +124,8 @@ int serve(const Options& o) {
         } else {
             Result<journal::RecoveredState> recovered = journal->recover();
             if (!recovered) {
-                std::printf("terrain-server: recovery refused: %s\n",
-                            recovered.error().message.c_str());
+                std::printf(
+                    "terrain-server: recovery refused: %s\n", recovered.error().message.c_str());
                 return 1;
             }
             for (const std::string& note : recovered->notes)
@@ -264,45 +264,50 @@ int healthCheck(const Options& o) {
                 io.stop();
                 return;
             }
-            asio::async_write(socket, asio::buffer(out), [&](const asio::error_code& wec, std::size_t) {
-                if (wec) {
-                    detail = "write: " + wec.message();
-                    io.stop();
-                    return;
-                }
-                std::function<void()> readSome = [&] {
-                    auto space = reader.prepare(4096);
-                    socket.async_read_some(
-                        asio::buffer(space.data(), space.size()),
-                        [&](const asio::error_code& rec, std::size_t n) {
-                            if (rec) {
-                                detail = "read: " + rec.message();
-                                io.stop();
-                                return;
-                            }
-                            reader.commit(n);
-                            auto frame = reader.next();
-                            if (frame && frame->has_value()) {
-                                auto env = wire::decodeEnvelope(**frame);
-                                if (env && env->has_health_reply()) {
-                                    const auto& h = env->health_reply();
-                                    result = h.healthy() ? 0 : 1;
-                                    char buf[160];
-                                    std::snprintf(buf, sizeof buf, "%s, seq %llu, hash %016llx, %u sessions",
-                                        h.detail().c_str(), static_cast<unsigned long long>(h.seq()),
-                                        static_cast<unsigned long long>(h.world_hash()), h.sessions());
-                                    detail = buf;
-                                } else {
-                                    detail = "unexpected reply";
+            asio::async_write(
+                socket, asio::buffer(out), [&](const asio::error_code& wec, std::size_t) {
+                    if (wec) {
+                        detail = "write: " + wec.message();
+                        io.stop();
+                        return;
+                    }
+                    std::function<void()> readSome = [&] {
+                        auto space = reader.prepare(4096);
+                        socket.async_read_some(
+                            asio::buffer(space.data(), space.size()),
+                            [&](const asio::error_code& rec, std::size_t n) {
+                                if (rec) {
+                                    detail = "read: " + rec.message();
+                                    io.stop();
+                                    return;
                                 }
-                                io.stop();
-                                return;
-                            }
-                            readSome();
-                        });
-                };
-                readSome();
-            });
+                                reader.commit(n);
+                                auto frame = reader.next();
+                                if (frame && frame->has_value()) {
+                                    auto env = wire::decodeEnvelope(**frame);
+                                    if (env && env->has_health_reply()) {
+                                        const auto& h = env->health_reply();
+                                        result = h.healthy() ? 0 : 1;
+                                        char buf[160];
+                                        std::snprintf(
+                                            buf, sizeof buf,
+                                            "%s, seq %llu, hash %016llx, %u sessions",
+                                            h.detail().c_str(),
+                                            static_cast<unsigned long long>(h.seq()),
+                                            static_cast<unsigned long long>(h.world_hash()),
+                                            h.sessions());
+                                        detail = buf;
+                                    } else {
+                                        detail = "unexpected reply";
+                                    }
+                                    io.stop();
+                                    return;
+                                }
+                                readSome();
+                            });
+                    };
+                    readSome();
+                });
         });
     io.run_for(std::chrono::seconds(3));
     std::printf("health: %s: %s\n", result == 0 ? "ok" : "FAIL", detail.c_str());
@@ -314,7 +319,8 @@ int healthCheck(const Options& o) {
 int main(int argc, char** argv) {
     Options o;
     CLI::App app{"terrain-server: authoritative deformable terrain over TCP"};
-    app.add_option("--token-secret", o.secret, "HMAC secret for access tokens (>= 16 bytes, or hex:...)")
+    app.add_option(
+           "--token-secret", o.secret, "HMAC secret for access tokens (>= 16 bytes, or hex:...)")
         ->envname("TERRAIN_TOKEN_SECRET");
     app.add_option("--token-secret-file", o.secret_file, "file whose first line is the secret")
         ->envname("TERRAIN_TOKEN_SECRET_FILE");
@@ -322,29 +328,40 @@ int main(int argc, char** argv) {
     CLI::App* serve_cmd = app.add_subcommand("serve", "run the server (the default)");
     serve_cmd->add_option("--bind", o.bind, "address to listen on")->envname("TERRAIN_BIND");
     serve_cmd->add_option("--port", o.port, "TCP port (0: any free port)")
-        ->envname("TERRAIN_PORT")->check(CLI::Range(0, 65535));
+        ->envname("TERRAIN_PORT")
+        ->check(CLI::Range(0, 65535));
     serve_cmd->add_option("--data-dir", o.data_dir, "journal and snapshots directory")
         ->envname("TERRAIN_DATA_DIR");
     serve_cmd->add_flag("--no-journal", o.no_journal, "keep no journal (ops are not durable)")
         ->envname("TERRAIN_NO_JOURNAL");
-    serve_cmd->add_option("--durability", o.durability,
-        "fsync: fdatasync before an op is acknowledged; write: write() only (survives a server "
-        "crash, not an OS crash)")->envname("TERRAIN_DURABILITY");
+    serve_cmd
+        ->add_option(
+            "--durability", o.durability,
+            "fsync: fdatasync before an op is acknowledged; write: write() only (survives a server "
+            "crash, not an OS crash)")
+        ->envname("TERRAIN_DURABILITY");
     serve_cmd->add_option("--dem", o.dem, "genesis map: DEM sidecar JSON (new data dir only)")
         ->envname("TERRAIN_DEM");
-    serve_cmd->add_option("--seed", o.seed, "genesis map: procedural seed")->envname("TERRAIN_SEED");
+    serve_cmd->add_option("--seed", o.seed, "genesis map: procedural seed")
+        ->envname("TERRAIN_SEED");
     serve_cmd->add_option("--size", o.size, "genesis map: procedural size in vertices")
-        ->envname("TERRAIN_SIZE")->check(CLI::Range(65, 8193));
+        ->envname("TERRAIN_SIZE")
+        ->check(CLI::Range(65, 8193));
     serve_cmd->add_option("--tolerance", o.tolerance, "patch tolerance in metres")
         ->check(CLI::Range(1.0 / 1024, 10.0));
     serve_cmd->add_option("--max-sessions", o.max_sessions)->envname("TERRAIN_MAX_SESSIONS");
-    serve_cmd->add_option("--outbound-budget", o.outbound_budget,
-        "bytes of op backlog per session before a snapshot resync")
-        ->envname("TERRAIN_OUTBOUND_BUDGET")->check(CLI::Range(4096, 1 << 30));
+    serve_cmd
+        ->add_option(
+            "--outbound-budget", o.outbound_budget,
+            "bytes of op backlog per session before a snapshot resync")
+        ->envname("TERRAIN_OUTBOUND_BUDGET")
+        ->check(CLI::Range(4096, 1 << 30));
     serve_cmd->add_option("--op-log", o.op_log, "ops retained for reconnects")
-        ->envname("TERRAIN_OP_LOG")->check(CLI::Range(16, 1 << 24));
+        ->envname("TERRAIN_OP_LOG")
+        ->check(CLI::Range(16, 1 << 24));
     serve_cmd->add_option("--deform-rate", o.deform_rate, "deform requests per second per session")
-        ->envname("TERRAIN_DEFORM_RATE")->check(CLI::Range(0.1, 100000.0));
+        ->envname("TERRAIN_DEFORM_RATE")
+        ->check(CLI::Range(0.1, 100000.0));
     serve_cmd->add_option("--snapshot-every", o.snapshot_every, "journal snapshot every N ops")
         ->envname("TERRAIN_SNAPSHOT_EVERY");
     serve_cmd->add_option("--port-file", o.port_file, "write the bound port to this file");
@@ -352,7 +369,8 @@ int main(int argc, char** argv) {
     CLI::App* token_cmd = app.add_subcommand("token", "mint an access token");
     token_cmd->add_option("--player", o.player)->required();
     token_cmd->add_option("--role", o.role, "viewer | deformer | admin");
-    token_cmd->add_option("--ttl", o.ttl, "seconds until it expires")->check(CLI::Range(1, 100000000));
+    token_cmd->add_option("--ttl", o.ttl, "seconds until it expires")
+        ->check(CLI::Range(1, 100000000));
 
     CLI::App* health_cmd = app.add_subcommand("health", "exit 0 when the server answers healthy");
     health_cmd->add_option("--connect", o.connect, "host:port")->envname("TERRAIN_HEALTH_CONNECT");

@@ -8,13 +8,14 @@
 #include <terrain/journal/journal.h>
 #include <terrain/journal/record_codec.h>
 
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <random>
-#include <sys/wait.h>
-#include <unistd.h>
 
 namespace terrain::testing {
 namespace {
@@ -38,10 +39,11 @@ ServerProcess spawnServer(const fs::path& dir, const std::string& tag) {
     if (pid == 0) {
         std::freopen(log.c_str(), "w", stdout);
         std::freopen(log.c_str(), "a", stderr);
-        execl(TERRAIN_SERVER_BIN, TERRAIN_SERVER_BIN, "--token-secret", secret.c_str(), "serve",
-              "--bind", "127.0.0.1", "--port", "0", "--port-file", port_path.c_str(),
-              "--data-dir", data.c_str(), "--size", "129", "--durability", "fsync",
-              "--deform-rate", "100000", "--snapshot-every", "150", static_cast<char*>(nullptr));
+        execl(
+            TERRAIN_SERVER_BIN, TERRAIN_SERVER_BIN, "--token-secret", secret.c_str(), "serve",
+            "--bind", "127.0.0.1", "--port", "0", "--port-file", port_path.c_str(), "--data-dir",
+            data.c_str(), "--size", "129", "--durability", "fsync", "--deform-rate", "100000",
+            "--snapshot-every", "150", static_cast<char*>(nullptr));
         _exit(127);
     }
     ServerProcess p;
@@ -68,8 +70,8 @@ std::map<std::uint64_t, journal::JournalRecord> readJournal(const fs::path& data
     for (const fs::path& path : segments) {
         std::ifstream in(path, std::ios::binary);
         std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
-        for (std::size_t at = journal::kSegmentHeaderSize; at + journal::kRecordSize <= bytes.size();
-             at += journal::kRecordSize) {
+        for (std::size_t at = journal::kSegmentHeaderSize;
+             at + journal::kRecordSize <= bytes.size(); at += journal::kRecordSize) {
             auto r = journal::decodeRecord({bytes.data() + at, journal::kRecordSize});
             if (!r)
                 break;
@@ -92,7 +94,9 @@ TEST(CrashRecovery, KillNineUnderLoadLosesNoAcknowledgedOp) {
     ASSERT_TRUE(runUntil(io, [&] { return deformer->replica.ready() && viewer->replica.ready(); }));
     // the hash every client verified at each seq
     std::map<std::uint64_t, std::uint64_t> seen;
-    viewer->connection->on_applied = [&](std::uint64_t seq) { seen[seq] = viewer->replica.worldHash(); };
+    viewer->connection->on_applied = [&](std::uint64_t seq) {
+        seen[seq] = viewer->replica.worldHash();
+    };
 
     std::mt19937_64 rng(21);
     std::uniform_real_distribution<double> pos(3.0, 125.0);
@@ -104,13 +108,17 @@ TEST(CrashRecovery, KillNineUnderLoadLosesNoAcknowledgedOp) {
             n += a.accepted ? 1 : 0;
         return n;
     };
-    ASSERT_TRUE(runUntil(io, [&] {
-        while (sent < deformer->answers.size() + 16) {
-            deformer->connection->requestDeform(OpRequest{OpKind::kCrater, pos(rng), pos(rng), 2.5, 0.8, 0.3});
-            ++sent;
-        }
-        return acked() >= 300;
-    }, 60.0));
+    ASSERT_TRUE(runUntil(
+        io,
+        [&] {
+            while (sent < deformer->answers.size() + 16) {
+                deformer->connection->requestDeform(
+                    OpRequest{OpKind::kCrater, pos(rng), pos(rng), 2.5, 0.8, 0.3});
+                ++sent;
+            }
+            return acked() >= 300;
+        },
+        60.0));
     ASSERT_EQ(::kill(proc.pid, SIGKILL), 0);
     int status = 0;
     waitpid(proc.pid, &status, 0);

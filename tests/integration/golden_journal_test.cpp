@@ -14,12 +14,13 @@
 #include <terrain/op_script.h>
 #include <terrain/snapshot.h>
 
+#include <unistd.h>
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
-#include <unistd.h>
 
 namespace terrain::testing {
 namespace {
@@ -43,8 +44,8 @@ std::vector<journal::JournalRecord> readRecords(const fs::path& dir) {
     std::vector<journal::JournalRecord> records;
     for (const fs::path& path : segments) {
         const auto bytes = readBytes(path);
-        for (std::size_t at = journal::kSegmentHeaderSize; at + journal::kRecordSize <= bytes.size();
-             at += journal::kRecordSize) {
+        for (std::size_t at = journal::kSegmentHeaderSize;
+             at + journal::kRecordSize <= bytes.size(); at += journal::kRecordSize) {
             auto r = journal::decodeRecord({bytes.data() + at, journal::kRecordSize});
             EXPECT_TRUE(r.ok()) << path;
             if (r)
@@ -55,7 +56,8 @@ std::vector<journal::JournalRecord> readRecords(const fs::path& dir) {
 }
 
 fs::path copyGolden() {
-    const fs::path copy = fs::temp_directory_path() / ("terrain-golden-" + std::to_string(getpid()));
+    const fs::path copy =
+        fs::temp_directory_path() / ("terrain-golden-" + std::to_string(getpid()));
     fs::remove_all(copy);
     fs::create_directories(copy);
     for (const auto& entry : fs::directory_iterator(kGoldenDir))
@@ -65,7 +67,8 @@ fs::path copyGolden() {
 
 TEST(GoldenJournal, Regenerate) {
     if (!std::getenv("TERRAIN_REGENERATE_GOLDEN_JOURNAL"))
-        GTEST_SKIP() << "set TERRAIN_REGENERATE_GOLDEN_JOURNAL=1 to rewrite tests/data/golden_journal";
+        GTEST_SKIP()
+            << "set TERRAIN_REGENERATE_GOLDEN_JOURNAL=1 to rewrite tests/data/golden_journal";
     ProceduralMapOptions o;
     o.seed = 42;
     o.width = 200;
@@ -115,7 +118,8 @@ TEST(GoldenJournal, ReplayedThroughAFreshServerEveryClientMatchesEverySeq) {
     std::vector<std::unique_ptr<TestClient>> clients;
     clients.push_back(std::make_unique<TestClient>(io, srv.port(), token(1, Role::kDeformer)));
     for (int i = 0; i < 3; ++i)
-        clients.push_back(std::make_unique<TestClient>(io, srv.port(), token(10 + i, Role::kViewer)));
+        clients.push_back(
+            std::make_unique<TestClient>(io, srv.port(), token(10 + i, Role::kViewer)));
     std::vector<std::map<std::uint64_t, std::uint64_t>> seen(clients.size());
     for (std::size_t i = 0; i < clients.size(); ++i)
         clients[i]->connection->on_applied = [&, i](std::uint64_t seq) {

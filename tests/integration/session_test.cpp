@@ -37,7 +37,8 @@ server::ServerConfig fastConfig() {
     return c;
 }
 
-bool allAt(std::vector<std::unique_ptr<TestClient>>& clients, std::uint64_t seq, std::uint64_t hash) {
+bool allAt(
+    std::vector<std::unique_ptr<TestClient>>& clients, std::uint64_t seq, std::uint64_t hash) {
     for (auto& c : clients)
         if (!c->replica.ready() || c->replica.seq() != seq || c->replica.worldHash() != hash)
             return false;
@@ -49,16 +50,19 @@ TEST(Session, ClientsConvergeAfterOpsFromSeveralDeformers) {
     asio::io_context io;
     std::vector<std::unique_ptr<TestClient>> clients;
     for (int i = 0; i < 3; ++i)
-        clients.push_back(std::make_unique<TestClient>(io, srv.port(), token(10 + i, Role::kDeformer)));
+        clients.push_back(
+            std::make_unique<TestClient>(io, srv.port(), token(10 + i, Role::kDeformer)));
     for (int i = 0; i < 5; ++i)
-        clients.push_back(std::make_unique<TestClient>(io, srv.port(), token(20 + i, Role::kViewer)));
+        clients.push_back(
+            std::make_unique<TestClient>(io, srv.port(), token(20 + i, Role::kViewer)));
     ASSERT_TRUE(runUntil(io, [&] { return allAt(clients, 0, srv.worldHash()); }));
 
     std::mt19937_64 rng(7);
     const WorldSpec spec = clients[0]->replica.terrain().spec();
     for (int round = 0; round < 40; ++round)
         for (int d = 0; d < 3; ++d)
-            clients[static_cast<std::size_t>(d)]->connection->requestDeform(randomCrater(rng, spec));
+            clients[static_cast<std::size_t>(d)]->connection->requestDeform(
+                randomCrater(rng, spec));
     ASSERT_TRUE(runUntil(io, [&] {
         std::size_t answered = 0;
         for (int d = 0; d < 3; ++d)
@@ -132,18 +136,21 @@ void reconnectScenario(std::size_t log_capacity, int missed_ops, bool expect_res
     ASSERT_TRUE(runUntil(io, [&] { return deformer.answers.size() == 5u + missed_ops; }));
     EXPECT_EQ(kept.seq(), 5u);
     viewer = connectViewer();
-    ASSERT_TRUE(runUntil(io, [&] {
-        return kept.seq() == srv.seq() && kept.worldHash() == srv.worldHash();
-    }));
+    ASSERT_TRUE(runUntil(
+        io, [&] { return kept.seq() == srv.seq() && kept.worldHash() == srv.worldHash(); }));
     EXPECT_EQ(viewer->stats().resumes, expect_resume ? 1u : 0u);
     EXPECT_EQ(viewer->stats().snapshots, expect_resume ? 0u : 1u);
     EXPECT_EQ(kept.stats().snapshots, expect_resume ? 1u : 2u);
     viewer->stop();
 }
 
-TEST(Session, ReconnectWithinRetainedLogGetsOnlyMissedOps) { reconnectScenario(64, 20, true); }
+TEST(Session, ReconnectWithinRetainedLogGetsOnlyMissedOps) {
+    reconnectScenario(64, 20, true);
+}
 
-TEST(Session, ReconnectBeyondRetainedLogGetsSnapshot) { reconnectScenario(16, 40, false); }
+TEST(Session, ReconnectBeyondRetainedLogGetsSnapshot) {
+    reconnectScenario(16, 40, false);
+}
 
 TEST(Session, ReaderThatStopsReadingIsResyncedThenDisconnectedWithoutHurtingOthers) {
     server::ServerConfig config = fastConfig();
@@ -198,11 +205,20 @@ TEST(Session, BadPeersGetAStatedReasonAndOthersAreUnaffected) {
     ASSERT_TRUE(runUntil(io, [&] { return good.replica.ready(); }));
 
     const std::vector<AbuseCase> cases = {
-        {"oversize frame", [](RawPeer& p) { p.sendBytes({0x80, 0x80, 0x80, 0x08}); },
+        {"oversize frame",
+         [](RawPeer& p) {
+             p.sendBytes({0x80, 0x80, 0x80, 0x08});
+         },
          pb::REASON_FRAME_TOO_LARGE},
-        {"over-long prefix", [](RawPeer& p) { p.sendBytes({0x81, 0x80, 0x80, 0x80, 0x80, 0x01}); },
+        {"over-long prefix",
+         [](RawPeer& p) {
+             p.sendBytes({0x81, 0x80, 0x80, 0x80, 0x80, 0x01});
+         },
          pb::REASON_BAD_FRAME},
-        {"garbage body", [](RawPeer& p) { p.sendBytes({0x05, 0xff, 0xff, 0xff, 0xff, 0xff}); },
+        {"garbage body",
+         [](RawPeer& p) {
+             p.sendBytes({0x05, 0xff, 0xff, 0xff, 0xff, 0xff});
+         },
          pb::REASON_BAD_FRAME},
         {"zero-length frame", [](RawPeer& p) { p.sendBytes({0x00}); }, pb::REASON_BAD_FRAME},
         {"wrong version", [](RawPeer& p) { p.sendHello(token(2, Role::kViewer), 2); },
@@ -277,7 +293,8 @@ TEST(Session, RefusalsAndRateLimitsAffectOnlyTheRequest) {
     deformer.connection->requestDeform(OpRequest{OpKind::kCrater, 30, 30, -3, 1, 0.3});
     deformer.connection->requestDeform(OpRequest{OpKind::kCrater, 30, 30, 3, 1, 0.3});
     deformer.connection->requestDeform(OpRequest{OpKind::kCrater, 40, 30, 3, 1, 0.3});
-    ASSERT_TRUE(runUntil(io, [&] { return viewer.answers.size() == 1 && deformer.answers.size() == 4; }));
+    ASSERT_TRUE(
+        runUntil(io, [&] { return viewer.answers.size() == 1 && deformer.answers.size() == 4; }));
     // refusals are answered at once, acceptances after the group commit: order by request id
     std::sort(deformer.answers.begin(), deformer.answers.end(), [](const auto& a, const auto& b) {
         return a.request_id < b.request_id;
@@ -302,7 +319,8 @@ TEST(Session, ForcedHashMismatchIsRepairedByTileRequest) {
     ASSERT_TRUE(runUntil(io, [&] { return deformer.replica.ready() && victim.replica.ready(); }));
     // corrupt the victim far from where the server's next op lands
     ASSERT_TRUE(victim.replica.terrainForTesting()
-                    .apply(*quantizeOp({OpKind::kRaise, 200, 200, 8, 2, 1}, victim.replica.terrain().spec()))
+                    .apply(*quantizeOp(
+                        {OpKind::kRaise, 200, 200, 8, 2, 1}, victim.replica.terrain().spec()))
                     .ok());
     ASSERT_NE(victim.replica.worldHash(), srv.worldHash());
     deformer.connection->requestDeform(OpRequest{OpKind::kCrater, 20, 20, 3, 1, 0.3});

@@ -139,7 +139,13 @@ Terrain craterMap() {
     Terrain t = std::move(*makeProceduralMap(o));
     std::mt19937_64 rng(3);
     for (int i = 0; i < 30; ++i) {
-        OpRequest r{OpKind::kCrater, 5.0 + static_cast<double>(rng() % 190), 5.0 + static_cast<double>(rng() % 160), 3, 1, 0.3};
+        OpRequest r{
+            OpKind::kCrater,
+            5.0 + static_cast<double>(rng() % 190),
+            5.0 + static_cast<double>(rng() % 160),
+            3,
+            1,
+            0.3};
         EXPECT_TRUE(t.apply(*quantizeOp(r, t.spec())).ok());
     }
     return t;
@@ -204,7 +210,9 @@ TEST(TileBlob, RoundTripsAndRefusesDisorder) {
     EXPECT_EQ((*records)[2].tile, 5);
     const std::vector<std::int32_t> disorder = {2, 0};
     TileBlob bad = encodeTiles(t, disorder);
-    EXPECT_EQ(decodeTiles(bad.compressed, bad.raw_bytes, t.spec(), 16).error().code, ErrorCode::kBadFormat);
+    EXPECT_EQ(
+        decodeTiles(bad.compressed, bad.raw_bytes, t.spec(), 16).error().code,
+        ErrorCode::kBadFormat);
     EXPECT_FALSE(decodeTiles(blob.compressed, blob.raw_bytes, t.spec(), 2).ok());
 }
 

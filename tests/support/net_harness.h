@@ -12,9 +12,9 @@
 #include <terrain/wire/codec.h>
 #include <terrain/wire/framing.h>
 
-#include <asio.hpp>
 #include <gtest/gtest.h>
 
+#include <asio.hpp>
 #include <chrono>
 #include <functional>
 #include <future>
@@ -61,7 +61,8 @@ class TestServer {
         journal::Journal* journal = nullptr,
         std::uint64_t seq = 0) {
         config.token_secret = testSecret();
-        authority_ = std::make_unique<server::Authority>(std::move(terrain), seq, config.op_log_capacity);
+        authority_ =
+            std::make_unique<server::Authority>(std::move(terrain), seq, config.op_log_capacity);
         server_ = std::make_unique<server::Server>(io_, config, *authority_, journal);
         const Status s = server_->start();
         EXPECT_TRUE(s.ok()) << (s ? "" : s.error().message);
@@ -92,11 +93,15 @@ class TestServer {
     }
 
     std::uint16_t port() const { return server_->port(); }
-    std::uint64_t seq() { return call([this] { return server_->broadcastSeq(); }); }
+    std::uint64_t seq() {
+        return call([this] { return server_->broadcastSeq(); });
+    }
     std::uint64_t worldHash() {
         return call([this] { return authority_->terrain().worldHash(); });
     }
-    server::ServerStats stats() { return call([this] { return server_->stats(); }); }
+    server::ServerStats stats() {
+        return call([this] { return server_->stats(); });
+    }
     server::Authority& authority() { return *authority_; } // server thread only (call())
     server::Server& server() { return *server_; }          // server thread only (call())
 
@@ -122,7 +127,9 @@ struct TestClient {
         config.reconnect = reconnect;
         config.reconnect_delay_seconds = 0.05;
         connection = std::make_shared<client::Connection>(io, config, replica);
-        connection->on_deform_reply = [this](const client::DeformAnswer& a) { answers.push_back(a); };
+        connection->on_deform_reply = [this](const client::DeformAnswer& a) {
+            answers.push_back(a);
+        };
         connection->on_disconnect = [this](const std::string& why) { disconnects.push_back(why); };
         connection->start();
     }
@@ -130,8 +137,8 @@ struct TestClient {
 };
 
 /// Runs `io` until `done()` or the timeout; returns done().
-inline bool runUntil(
-    asio::io_context& io, const std::function<bool()>& done, double timeout_seconds = 20.0) {
+inline bool
+runUntil(asio::io_context& io, const std::function<bool()>& done, double timeout_seconds = 20.0) {
     const auto deadline = std::chrono::steady_clock::now() +
                           std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                               std::chrono::duration<double>(timeout_seconds));
@@ -169,7 +176,8 @@ class RawPeer {
         send(e);
     }
     /// Reads frames until a Disconnect (its reason) or EOF/timeout (REASON_UNSPECIFIED).
-    wire::pb::Reason readUntilDisconnect(double timeout_seconds = 10.0, std::string* message = nullptr) {
+    wire::pb::Reason
+    readUntilDisconnect(double timeout_seconds = 10.0, std::string* message = nullptr) {
         wire::FrameReader reader(64 << 20);
         const auto deadline = std::chrono::steady_clock::now() +
                               std::chrono::milliseconds(static_cast<int>(timeout_seconds * 1000));
@@ -203,8 +211,7 @@ class RawPeer {
     }
     /// True when the server closed the connection (EOF) within the timeout.
     bool closedByServer(double timeout_seconds = 10.0) {
-        return readUntilDisconnect(timeout_seconds) != wire::pb::REASON_UNSPECIFIED ||
-               eofSeen();
+        return readUntilDisconnect(timeout_seconds) != wire::pb::REASON_UNSPECIFIED || eofSeen();
     }
     bool eofSeen() {
         asio::error_code ec;

@@ -28,7 +28,9 @@ Connection::Connection(asio::io_context& io, ConnectionConfig config, Replica& r
 
 Connection::~Connection() = default;
 
-void Connection::start() { connect(); }
+void Connection::start() {
+    connect();
+}
 
 void Connection::stop() {
     state_ = State::kClosed;
@@ -39,7 +41,9 @@ void Connection::stop() {
     socket_.close(ignored);
 }
 
-void Connection::dropForTesting() { lost("dropped by the test", false); }
+void Connection::dropForTesting() {
+    lost("dropped by the test", false);
+}
 
 void Connection::connect() {
     if (state_ == State::kClosed)
@@ -200,7 +204,8 @@ void Connection::handle(const pb::Envelope& envelope) {
     }
     case pb::Envelope::kHeightReply: {
         const pb::HeightReply& r = envelope.height_reply();
-        HeightAnswer a{r.request_id(), r.inside(), r.height(), {r.normal_x(), r.normal_y(), r.normal_z()}};
+        HeightAnswer a{
+            r.request_id(), r.inside(), r.height(), {r.normal_x(), r.normal_y(), r.normal_z()}};
         if (on_height_reply)
             on_height_reply(a);
         break;

@@ -78,7 +78,8 @@ Result<std::vector<std::int32_t>> Replica::applyRepair(
     const std::int32_t tile_count = terrain_->spec().tileCount();
     if (!server_tile_hashes.empty() &&
         server_tile_hashes.size() != static_cast<std::size_t>(tile_count))
-        return makeError(ErrorCode::kSizeMismatch, "repair carries a tile hash list of the wrong length");
+        return makeError(
+            ErrorCode::kSizeMismatch, "repair carries a tile hash list of the wrong length");
     for (TileRecord& record : tiles) {
         terrain_->replaceTile(record.tile, record.samples, std::move(record.patches));
         markTile(record.tile);

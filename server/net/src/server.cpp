@@ -1,8 +1,7 @@
-#include <terrain/server/server.h>
-
 #include "session.h"
 
 #include <terrain/assert.h>
+#include <terrain/server/server.h>
 
 #include <algorithm>
 #include <chrono>
@@ -13,8 +12,8 @@ namespace pb = wire::pb;
 
 Server::Server(
     asio::io_context& io, ServerConfig config, Authority& authority, journal::Journal* journal)
-    : io_(io), config_(std::move(config)), authority_(authority), journal_(journal),
-      acceptor_(io), broadcast_seq_(authority.seq()), last_journal_snapshot_seq_(authority.seq()),
+    : io_(io), config_(std::move(config)), authority_(authority), journal_(journal), acceptor_(io),
+      broadcast_seq_(authority.seq()), last_journal_snapshot_seq_(authority.seq()),
       op_frames_(authority.log().capacity()), shutdown_timer_(io) {}
 
 Server::~Server() = default;
@@ -61,9 +60,8 @@ void Server::accept() {
 void Server::remove(Session* session) {
     // deferred: a session may finish while the server walks the list
     asio::post(io_, [this, session] {
-        auto it = std::find_if(sessions_.begin(), sessions_.end(), [&](const auto& s) {
-            return s.get() == session;
-        });
+        auto it = std::find_if(
+            sessions_.begin(), sessions_.end(), [&](const auto& s) { return s.get() == session; });
         if (it != sessions_.end())
             sessions_.erase(it);
         if (shutting_down_ && sessions_.empty() && shutdown_done_) {
@@ -86,8 +84,7 @@ void Server::submit(
     const std::shared_ptr<Session>& session, std::uint32_t request_id, Result<Accepted> accepted) {
     ++stats_.ops_accepted;
     if (journal_)
-        journal_->append(journal::JournalRecord{
-            accepted->seq, accepted->op, accepted->world_hash});
+        journal_->append(journal::JournalRecord{accepted->seq, accepted->op, accepted->world_hash});
     pending_.push_back(PendingOp{std::move(*accepted), session, request_id});
     scheduleCommit();
 }
@@ -165,8 +162,8 @@ const wire::SnapshotFrames& Server::joinSnapshot() {
                         current - snapshot_->seq <= config_.snapshot_cache_max_lag;
     if (!usable) {
         TERRAIN_ASSERT(authority_.seq() == current); // callers commit pending ops first
-        snapshot_ = std::make_unique<wire::SnapshotFrames>(wire::buildSnapshotFrames(
-            authority_.terrain(), current, config_.snapshot_chunk_bytes));
+        snapshot_ = std::make_unique<wire::SnapshotFrames>(
+            wire::buildSnapshotFrames(authority_.terrain(), current, config_.snapshot_chunk_bytes));
         ++stats_.snapshots_built;
     }
     return *snapshot_;

@@ -147,10 +147,10 @@ bool Session::handleFrame(const pb::Envelope& envelope) {
         break;
     default:
         close(
-            pb::REASON_PROTOCOL, "a client may not send " +
-                                     std::string(pb::Envelope::descriptor()
-                                                     ->FindFieldByNumber(envelope.body_case())
-                                                     ->name()));
+            pb::REASON_PROTOCOL,
+            "a client may not send " +
+                std::string(
+                    pb::Envelope::descriptor()->FindFieldByNumber(envelope.body_case())->name()));
         return false;
     }
     return state_ == State::kLive;
@@ -159,8 +159,7 @@ bool Session::handleFrame(const pb::Envelope& envelope) {
 void Session::onHello(const pb::Hello& hello) {
     if (hello.protocol_version() != wire::kProtocolVersion) {
         close(
-            pb::REASON_BAD_VERSION, "protocol version " +
-                                        std::to_string(hello.protocol_version()) +
+            pb::REASON_BAD_VERSION, "protocol version " + std::to_string(hello.protocol_version()) +
                                         " is not supported (this server speaks 1)");
         return;
     }
@@ -222,8 +221,9 @@ void Session::onDeform(const pb::DeformRequest& request) {
         sendControl(reply);
     };
     if (!mayDeform(claims_.role))
-        return refuse(pb::REASON_NOT_PERMITTED, "role " + std::string(toString(claims_.role)) +
-                                                    " may not request deformations");
+        return refuse(
+            pb::REASON_NOT_PERMITTED,
+            "role " + std::string(toString(claims_.role)) + " may not request deformations");
     if (!deform_limiter_.tryConsume(now()))
         return refuse(pb::REASON_RATE_LIMITED, "more deformations per second than the limit");
     if (server_.failed_ || server_.shutting_down_)
@@ -274,9 +274,8 @@ void Session::onRayQuery(const pb::RayQuery& query) {
     r->set_seq(server_.authority_.seq());
     const double values[] = {query.origin_x(), query.origin_y(), query.origin_z(),    query.dir_x(),
                              query.dir_y(),    query.dir_z(),    query.max_distance()};
-    const bool finite = std::all_of(std::begin(values), std::end(values), [](double v) {
-        return std::isfinite(v);
-    });
+    const bool finite = std::all_of(
+        std::begin(values), std::end(values), [](double v) { return std::isfinite(v); });
     const double max_metres = 1e7; // bounds the walk: no map is wider than 10^4 km
     if (!finite || query.max_distance() < 0 || query.max_distance() > max_metres) {
         r->mutable_refused()->set_reason(pb::REASON_OUT_OF_RANGE);
@@ -352,7 +351,9 @@ void Session::onHealthRequest() {
     r->set_world_hash(server_.authority_.terrain().worldHash());
     r->set_sessions(static_cast<std::uint32_t>(server_.sessions_.size()));
     r->set_detail(
-        server_.failed_ ? server_.failure_ : server_.shutting_down_ ? "shutting down" : "serving");
+        server_.failed_          ? server_.failure_
+        : server_.shutting_down_ ? "shutting down"
+                                 : "serving");
     sendControl(reply);
 }
 
@@ -385,9 +386,9 @@ void Session::overBudget() {
     if (resynced_since_drain_) {
         ++server_.stats_.slow_disconnects;
         close(
-            pb::REASON_SLOW_CONSUMER,
-            "outbound queue over " + std::to_string(server_.config_.outbound_budget_bytes) +
-                " bytes again before the last resync was read");
+            pb::REASON_SLOW_CONSUMER, "outbound queue over " +
+                                          std::to_string(server_.config_.outbound_budget_bytes) +
+                                          " bytes again before the last resync was read");
         return;
     }
     // drop the backlog this client has not started to receive; a snapshot replaces it
@@ -429,8 +430,7 @@ void Session::writeMore() {
     }
     writing_ = true;
     asio::async_write(
-        socket_, gather_,
-        [self = shared_from_this()](const asio::error_code& ec, std::size_t) {
+        socket_, gather_, [self = shared_from_this()](const asio::error_code& ec, std::size_t) {
             self->writing_ = false;
             self->queue_.popFront(self->in_flight_);
             self->in_flight_ = 0;

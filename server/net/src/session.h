@@ -11,7 +11,6 @@
 #include <terrain/wire/framing.h>
 
 #include <asio.hpp>
-
 #include <cstdint>
 #include <memory>
 #include <string>

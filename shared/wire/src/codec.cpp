@@ -1,5 +1,4 @@
 #include <terrain/wire/codec.h>
-
 #include <terrain/wire/compression.h>
 #include <terrain/wire/framing.h>
 
@@ -40,11 +39,15 @@ Result<DeformOp> opFromFields(
     return op;
 }
 
-std::uint32_t kindToWire(OpKind kind) { return static_cast<std::uint32_t>(kind) - 1; }
+std::uint32_t kindToWire(OpKind kind) {
+    return static_cast<std::uint32_t>(kind) - 1;
+}
 
 // centres of valid ops are inside the map, hence non-negative; a negative one is sent as a huge
 // unsigned value and refused on arrival
-std::uint64_t coordToWire(std::int64_t v) { return static_cast<std::uint64_t>(v); }
+std::uint64_t coordToWire(std::int64_t v) {
+    return static_cast<std::uint64_t>(v);
+}
 
 std::int32_t strengthToWire(std::int32_t strength) {
     return static_cast<std::int32_t>(std::int64_t{strength} - kUnitStrength);
@@ -90,8 +93,7 @@ void opToWire(const DeformOp& op, pb::Op& out) {
     out.set_strength_minus_unit(strengthToWire(op.strength));
 }
 
-void opToWire(
-    const DeformOp& op, std::uint64_t seq, std::uint64_t world_hash, pb::OpApplied& out) {
+void opToWire(const DeformOp& op, std::uint64_t seq, std::uint64_t world_hash, pb::OpApplied& out) {
     out.set_seq(seq);
     out.set_world_hash(world_hash);
     out.set_kind(kindToWire(op.kind));
@@ -167,8 +169,8 @@ void refusalToWire(const Error& error, pb::Refusal& out) {
 }
 
 std::string describe(pb::Reason reason, const std::string& message) {
-    std::string name = pb::Reason_IsValid(reason) ? pb::Reason_Name(reason)
-                                                  : "REASON_" + std::to_string(reason);
+    std::string name =
+        pb::Reason_IsValid(reason) ? pb::Reason_Name(reason) : "REASON_" + std::to_string(reason);
     return message.empty() ? name : name + ": " + message;
 }
 

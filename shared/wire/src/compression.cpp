@@ -1,9 +1,9 @@
+#include <terrain/assert.h>
 #include <terrain/wire/compression.h>
 
-#include <terrain/assert.h>
+#include <zstd.h>
 
 #include <string>
-#include <zstd.h>
 
 namespace terrain::wire {
 
@@ -24,7 +24,8 @@ Result<std::vector<std::uint8_t>> decompress(
             ErrorCode::kOutOfRange, "declared size of " + std::to_string(expected_raw_bytes) +
                                         " bytes is above the limit of " +
                                         std::to_string(max_raw_bytes));
-    const unsigned long long content = ZSTD_getFrameContentSize(compressed.data(), compressed.size());
+    const unsigned long long content =
+        ZSTD_getFrameContentSize(compressed.data(), compressed.size());
     if (content == ZSTD_CONTENTSIZE_ERROR || content == ZSTD_CONTENTSIZE_UNKNOWN)
         return makeError(ErrorCode::kBadFormat, "not a zstd frame with a declared content size");
     if (content != expected_raw_bytes)
@@ -36,8 +37,7 @@ Result<std::vector<std::uint8_t>> decompress(
     const std::size_t n =
         ZSTD_decompress(out.data(), out.size(), compressed.data(), compressed.size());
     if (ZSTD_isError(n))
-        return makeError(
-            ErrorCode::kBadFormat, std::string("zstd: ") + ZSTD_getErrorName(n));
+        return makeError(ErrorCode::kBadFormat, std::string("zstd: ") + ZSTD_getErrorName(n));
     if (n != expected_raw_bytes)
         return makeError(ErrorCode::kSizeMismatch, "zstd frame decompressed to the wrong size");
     return out;

@@ -42,7 +42,9 @@ std::span<std::uint8_t> FrameReader::prepare(std::size_t min_bytes) {
     return {buffer_.data() + end_, buffer_.size() - end_};
 }
 
-void FrameReader::commit(std::size_t n) { end_ += std::min(n, buffer_.size() - end_); }
+void FrameReader::commit(std::size_t n) {
+    end_ += std::min(n, buffer_.size() - end_);
+}
 
 void FrameReader::feed(std::span<const std::uint8_t> bytes) {
     std::span<std::uint8_t> space = prepare(bytes.size());
@@ -68,8 +70,7 @@ Result<std::optional<std::span<const std::uint8_t>>> FrameReader::next() {
         if ((byte & 0x80u) == 0)
             break;
         if (prefix == kMaxPrefixBytes)
-            return makeError(
-                ErrorCode::kBadFormat, "frame length prefix is longer than 5 bytes");
+            return makeError(ErrorCode::kBadFormat, "frame length prefix is longer than 5 bytes");
     }
     if (length == 0)
         return makeError(ErrorCode::kBadFormat, "frame of zero bytes (an envelope is never empty)");

@@ -1,6 +1,5 @@
-#include <terrain/wire/snapshot_stream.h>
-
 #include <terrain/wire/compression.h>
+#include <terrain/wire/snapshot_stream.h>
 
 #include <algorithm>
 #include <string>
@@ -14,7 +13,8 @@ std::size_t SnapshotFrames::totalBytes() const {
     return n;
 }
 
-SnapshotFrames buildSnapshotFrames(const Terrain& terrain, std::uint64_t seq, std::size_t chunk_bytes) {
+SnapshotFrames
+buildSnapshotFrames(const Terrain& terrain, std::uint64_t seq, std::size_t chunk_bytes) {
     const std::vector<std::uint8_t> raw = encodeSnapshot(terrain, seq);
     const std::vector<std::uint8_t> compressed = compress(raw);
     chunk_bytes = std::max<std::size_t>(chunk_bytes, 1);

@@ -12,7 +12,6 @@
 #include <terrain/wire/snapshot_stream.h>
 
 #include <asio.hpp>
-
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -87,7 +86,9 @@ class Connection : public std::enable_shared_from_this<Connection> {
 
     State state() const { return state_; }
     /// True when the replica holds the server's state at the last broadcast it received.
-    bool synced() const { return state_ == State::kLive && replica_.ready() && !replica_.diverged(); }
+    bool synced() const {
+        return state_ == State::kLive && replica_.ready() && !replica_.diverged();
+    }
 
     std::uint32_t requestDeform(const OpRequest& request);
     std::uint32_t requestDeform(const DeformOp& op);

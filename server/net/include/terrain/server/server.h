@@ -12,7 +12,6 @@
 #include <terrain/wire/snapshot_stream.h>
 
 #include <asio.hpp>
-
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -71,10 +70,7 @@ class Server {
   public:
     /// `journal` may be null (tests, benchmarks): ops are then acknowledged without durability.
     Server(
-        asio::io_context& io,
-        ServerConfig config,
-        Authority& authority,
-        journal::Journal* journal);
+        asio::io_context& io, ServerConfig config, Authority& authority, journal::Journal* journal);
     ~Server();
     Server(const Server&) = delete;
     Server& operator=(const Server&) = delete;
@@ -111,7 +107,10 @@ class Server {
     void accept();
     void remove(Session* session);
     /// Applies a deform request from `session` (already permitted and rate-checked).
-    void submit(const std::shared_ptr<Session>& session, std::uint32_t request_id, Result<Accepted> accepted);
+    void submit(
+        const std::shared_ptr<Session>& session,
+        std::uint32_t request_id,
+        Result<Accepted> accepted);
     void scheduleCommit();
     /// Journal commit of every pending op, then broadcast + acknowledgement, in seq order.
     void commitPending();

@@ -26,7 +26,9 @@ struct SnapshotFrames {
 };
 
 SnapshotFrames buildSnapshotFrames(
-    const Terrain& terrain, std::uint64_t seq, std::size_t chunk_bytes = kDefaultSnapshotChunkBytes);
+    const Terrain& terrain,
+    std::uint64_t seq,
+    std::size_t chunk_bytes = kDefaultSnapshotChunkBytes);
 
 /// Client side. Refuses out-of-order chunks, more data than announced, and sizes above limits.
 class SnapshotAssembler {
