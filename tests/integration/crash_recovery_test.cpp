@@ -7,6 +7,7 @@
 
 #include <terrain/journal/journal.h>
 #include <terrain/journal/record_codec.h>
+#include <terrain/snapshot.h>
 
 #include <sys/wait.h>
 #include <unistd.h>
@@ -14,8 +15,10 @@
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <map>
 #include <random>
+#include <sstream>
 
 namespace terrain::testing {
 namespace {
@@ -132,18 +135,31 @@ TEST(CrashRecovery, KillNineUnderLoadLosesNoAcknowledgedOp) {
             max_acked = std::max(max_acked, a.seq);
     ASSERT_GE(max_acked, 300u);
 
-    // every acknowledged op is in the journal, with the hash the clients verified
+    auto verified = journal::verifyJournal(dir / "data");
+    ASSERT_TRUE(verified.ok()) << verified.error().message;
+    EXPECT_GE(verified->last_seq, max_acked);
+    // ops up to the oldest kept snapshot are in it (older segments are pruned): its state must
+    // be the one the clients verified at that seq; verifyJournal() chained it to every later one
+    {
+        std::ostringstream name;
+        name << "snapshot-" << std::setw(20) << std::setfill('0') << verified->base_seq << ".trsn";
+        std::ifstream in(dir / "data" / name.str(), std::ios::binary);
+        std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
+        auto base = decodeSnapshot(bytes);
+        ASSERT_TRUE(base.ok()) << name.str();
+        if (seen.count(verified->base_seq)) {
+            EXPECT_EQ(base->terrain.worldHash(), seen[verified->base_seq]);
+        }
+    }
+    // every later acknowledged op is in the journal, with the hash the clients verified
     const auto records = readJournal(dir / "data");
-    for (std::uint64_t s = 1; s <= max_acked; ++s) {
+    for (std::uint64_t s = verified->base_seq + 1; s <= max_acked; ++s) {
         auto it = records.find(s);
         ASSERT_NE(it, records.end()) << "acknowledged seq " << s << " is not in the journal";
         if (seen.count(s)) {
             EXPECT_EQ(it->second.world_hash, seen[s]) << "seq " << s;
         }
     }
-    auto verified = journal::verifyJournal(dir / "data");
-    ASSERT_TRUE(verified.ok()) << verified.error().message;
-    EXPECT_GE(verified->last_seq, max_acked);
 
     // restart on the same directory: the server resumes at the journal's last seq
     ServerProcess again = spawnServer(dir, "b");

@@ -250,6 +250,15 @@ TEST(Session, BadPeersGetAStatedReasonAndOthersAreUnaffected) {
              p.send(e);
          },
          pb::REASON_PROTOCOL},
+        {"repair of more tiles than the limit",
+         [](RawPeer& p) {
+             p.sendHello(token(2, Role::kViewer));
+             pb::Envelope e;
+             for (int i = 0; i < 65; ++i)
+                 e.mutable_repair_request()->add_tiles(0);
+             p.send(e);
+         },
+         pb::REASON_OUT_OF_RANGE},
         {"repair of a tile outside the map",
          [](RawPeer& p) {
              p.sendHello(token(2, Role::kViewer));
@@ -362,6 +371,73 @@ TEST(Session, HeightAndRayQueriesMatchTheReplica) {
     ASSERT_TRUE(rays[0].hit);
     EXPECT_DOUBLE_EQ(rays[0].point[2], local->point.z);
     EXPECT_NE(rays[1].refused.find("REASON_OUT_OF_RANGE"), std::string::npos);
+}
+
+TEST(Session, PeerThatAsksButNeverReadsIsCutOffAtItsBudget) {
+    server::ServerConfig config = fastConfig();
+    config.outbound_budget_bytes = 64 << 10;
+    config.socket_send_buffer_bytes = 8 << 10;
+    config.close_linger_seconds = 0.2;
+    TestServer srv(smallMap(1025), config);
+    RawPeer greedy(srv.port(), 4096);
+    greedy.sendHello(token(9, Role::kViewer));
+    pb::Envelope repair;
+    for (std::uint32_t t = 0; t < 64; ++t)
+        repair.mutable_repair_request()->add_tiles(t);
+    for (int i = 0; i < 5; ++i)
+        greedy.send(repair); // within the repair rate's burst, each reply far over the budget
+    asio::io_context io;
+    ASSERT_TRUE(runUntil(io, [&] { return srv.stats().slow_disconnects == 1; }));
+    ASSERT_TRUE(
+        runUntil(io, [&] { return srv.call([&] { return srv.server().sessionCount(); }) == 0; }));
+    EXPECT_LT(srv.call([&] { return srv.server().queuedBytes(); }), std::size_t{1} << 20);
+}
+
+TEST(Session, JoinFarBehindTheCachedSnapshotIsNotTreatedAsSlow) {
+    server::ServerConfig config = fastConfig();
+    config.outbound_budget_bytes = 8 << 10;
+    config.snapshot_cache_max_lag = 1u << 30;
+    TestServer srv(smallMap(129), config);
+    asio::io_context io;
+    TestClient first(io, srv.port(), token(1, Role::kDeformer)); // builds the cached snapshot
+    ASSERT_TRUE(runUntil(io, [&] { return first.replica.ready(); }));
+    std::mt19937_64 rng(9);
+    const WorldSpec spec = first.replica.terrain().spec();
+    // in windows of 20, so that the deformer itself stays inside its small budget
+    for (std::size_t sent = 0; sent < 600; sent += 20) {
+        for (int i = 0; i < 20; ++i)
+            first.connection->requestDeform(randomCrater(rng, spec));
+        ASSERT_TRUE(runUntil(io, [&] { return first.answers.size() == sent + 20; }));
+    }
+    // 600 ops of tail would not fit an 8 KiB budget: the server must rebuild the snapshot
+    TestClient late(io, srv.port(), token(2, Role::kViewer));
+    ASSERT_TRUE(runUntil(io, [&] {
+        return late.replica.ready() && late.replica.seq() == srv.seq() &&
+               late.replica.worldHash() == srv.worldHash();
+    }));
+    EXPECT_EQ(late.connection->stats().disconnects, 0u);
+    EXPECT_EQ(srv.stats().slow_disconnects, 0u);
+}
+
+TEST(Session, QueriesAboveTheRateAreRefusedAndTheSessionStays) {
+    server::ServerConfig config = fastConfig();
+    config.query_rate_per_second = 10;
+    config.query_burst = 20;
+    TestServer srv(smallMap(129), config);
+    asio::io_context io;
+    TestClient c(io, srv.port(), token(1, Role::kViewer));
+    ASSERT_TRUE(runUntil(io, [&] { return c.replica.ready(); }));
+    std::vector<client::HeightAnswer> answers;
+    c.connection->on_height_reply = [&](const client::HeightAnswer& a) { answers.push_back(a); };
+    for (int i = 0; i < 60; ++i)
+        c.connection->queryHeight(10, 10);
+    ASSERT_TRUE(runUntil(io, [&] { return answers.size() == 60; }));
+    const auto refused = std::count_if(answers.begin(), answers.end(), [](const auto& a) {
+        return a.refused.find("REASON_RATE_LIMITED") != std::string::npos;
+    });
+    EXPECT_GE(refused, 30);
+    EXPECT_LE(refused, 40);
+    EXPECT_EQ(c.connection->stats().disconnects, 0u);
 }
 
 TEST(Session, HealthRequestAnswersWithoutAToken) {

@@ -90,7 +90,23 @@ TEST(Codec, OpRoundTripsAndCraterBroadcastFitsIn32Bytes) {
     auto back = opFromWire(decoded->op_applied());
     ASSERT_TRUE(back.ok());
     EXPECT_EQ(*back, op);
-    EXPECT_EQ(decoded->op_applied().seq(), 1'500'000u);
+    EXPECT_EQ(appliedSeq(decoded->op_applied(), 7), 1'500'000u); // explicit: a multiple of 16
+    // between explicit seqs the stream position gives the seq, and the frame is 3-4 bytes shorter
+    pb::Envelope implicit;
+    opToWire(op, 1'500'001, 0x0123456789abcdefULL, *implicit.mutable_op_applied());
+    EXPECT_EQ(implicit.op_applied().seq(), 0u);
+    EXPECT_EQ(appliedSeq(implicit.op_applied(), 1'500'000), 1'500'001u);
+    std::vector<std::uint8_t> shorter;
+    appendFrame(implicit, shorter);
+    EXPECT_EQ(shorter.size() + 4, frame.size());
+    // a crater with a non-default rim strength still fits
+    DeformOp rim = op;
+    rim.strength = 19661; // 0.3
+    pb::Envelope with_rim;
+    opToWire(rim, 1'500'001, 0x0123456789abcdefULL, *with_rim.mutable_op_applied());
+    std::vector<std::uint8_t> rim_frame;
+    appendFrame(with_rim, rim_frame);
+    EXPECT_LE(rim_frame.size(), 32u);
     // every kind and a non-default strength round trip too
     for (OpKind k : {OpKind::kRaise, OpKind::kFlatten, OpKind::kSmooth}) {
         op.kind = k;

@@ -1,5 +1,6 @@
 #include <terrain/client/connection.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 
@@ -151,6 +152,14 @@ void Connection::handle(const pb::Envelope& envelope) {
         const pb::Welcome& w = envelope.welcome();
         player_id_ = w.player_id();
         role_ = w.role();
+        Result<WorldSpec> spec = wire::specFromWire(w.world());
+        if (!spec) {
+            lost("the server's world is invalid: " + spec.error().message, false);
+            break;
+        }
+        // a snapshot can never be larger than this world's densest encoding
+        assembler_.setMaxRawBytes(static_cast<std::size_t>(
+            std::min<std::uint64_t>(config_.max_snapshot_bytes, wire::maxSnapshotBytes(*spec))));
         if (w.resume()) {
             ++stats_.resumes;
             state_ = State::kLive;
@@ -205,7 +214,9 @@ void Connection::handle(const pb::Envelope& envelope) {
     case pb::Envelope::kHeightReply: {
         const pb::HeightReply& r = envelope.height_reply();
         HeightAnswer a{
-            r.request_id(), r.inside(), r.height(), {r.normal_x(), r.normal_y(), r.normal_z()}};
+            r.request_id(), r.inside(), r.height(), {r.normal_x(), r.normal_y(), r.normal_z()}, {}};
+        if (r.has_refused())
+            a.refused = wire::describe(r.refused().reason(), r.refused().message());
         if (on_height_reply)
             on_height_reply(a);
         break;
@@ -250,7 +261,8 @@ void Connection::onOpApplied(const pb::OpApplied& op, std::size_t frame_bytes) {
         lost("bad op from the server: " + decoded.error().message, false);
         return;
     }
-    Result<Replica::OpOutcome> outcome = replica_.applyOp(op.seq(), *decoded, op.world_hash());
+    const std::uint64_t seq = wire::appliedSeq(op, replica_.seq());
+    Result<Replica::OpOutcome> outcome = replica_.applyOp(seq, *decoded, op.world_hash());
     if (!outcome) {
         // a gap or an op our state cannot take: start again from a snapshot
         requestSnapshot();
@@ -259,17 +271,17 @@ void Connection::onOpApplied(const pb::OpApplied& op, std::size_t frame_bytes) {
     if (*outcome == Replica::OpOutcome::kDiverged && !repair_in_flight_)
         requestRepair(replica_.suspectTiles(), true);
     if (*outcome != Replica::OpOutcome::kStale && on_applied)
-        on_applied(op.seq());
+        on_applied(seq);
 }
 
 void Connection::onRepairState(const pb::RepairState& state) {
     repair_in_flight_ = false;
     if (!replica_.ready() || awaiting_snapshot_)
         return;
+    // at most the tiles asked for: bounds what the reply may make this client allocate
     Result<std::vector<TileRecord>> tiles = wire::decodeTiles(
         {reinterpret_cast<const std::uint8_t*>(state.tiles().data()), state.tiles().size()},
-        state.raw_bytes(), replica_.terrain().spec(),
-        static_cast<std::size_t>(replica_.terrain().spec().tileCount()));
+        state.raw_bytes(), replica_.terrain().spec(), repair_tiles_requested_);
     if (!tiles) {
         requestSnapshot();
         return;
@@ -298,6 +310,10 @@ void Connection::requestRepair(std::vector<std::int32_t> tiles, bool want_hashes
     pb::Envelope request;
     pb::RepairRequest* r = request.mutable_repair_request();
     r->set_seq(replica_.seq());
+    // the rest are found again by the tile hash comparison of the next round
+    if (tiles.size() > config_.max_repair_tiles)
+        tiles.resize(config_.max_repair_tiles);
+    repair_tiles_requested_ = tiles.size();
     for (std::int32_t t : tiles)
         r->add_tiles(static_cast<std::uint32_t>(t));
     r->set_want_tile_hashes(want_hashes);

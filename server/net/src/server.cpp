@@ -14,7 +14,7 @@ Server::Server(
     asio::io_context& io, ServerConfig config, Authority& authority, journal::Journal* journal)
     : io_(io), config_(std::move(config)), authority_(authority), journal_(journal), acceptor_(io),
       broadcast_seq_(authority.seq()), last_journal_snapshot_seq_(authority.seq()),
-      op_frames_(authority.log().capacity()), shutdown_timer_(io) {}
+      op_frames_(authority.log().capacity()), shutdown_timer_(io), accept_retry_timer_(io) {}
 
 Server::~Server() = default;
 
@@ -45,15 +45,27 @@ void Server::accept() {
     acceptor_.async_accept([this](const asio::error_code& ec, asio::ip::tcp::socket socket) {
         if (ec == asio::error::operation_aborted || !acceptor_.is_open())
             return;
-        if (!ec) {
-            auto session = std::make_shared<Session>(*this, std::move(socket), next_session_id_++);
-            ++stats_.sessions_accepted;
-            sessions_.push_back(session);
-            session->start();
-            if (sessions_.size() > config_.max_sessions)
-                session->close(pb::REASON_SERVER_FULL, "the server has no room for a session");
+        if (ec) {
+            // e.g. out of file descriptors: back off instead of spinning on the error
+            std::printf("server: accept failed: %s; retrying in 100 ms\n", ec.message().c_str());
+            scheduleAccept();
+            return;
         }
+        auto session = std::make_shared<Session>(*this, std::move(socket), next_session_id_++);
+        ++stats_.sessions_accepted;
+        sessions_.push_back(session);
+        session->start();
+        if (sessions_.size() > config_.max_sessions)
+            session->close(pb::REASON_SERVER_FULL, "the server has no room for a session");
         accept();
+    });
+}
+
+void Server::scheduleAccept() {
+    accept_retry_timer_.expires_after(std::chrono::milliseconds(100));
+    accept_retry_timer_.async_wait([this](const asio::error_code& ec) {
+        if (!ec && acceptor_.is_open())
+            accept();
     });
 }
 
@@ -105,6 +117,9 @@ void Server::fail(const std::string& why) {
         return;
     failed_ = true;
     failure_ = why;
+    // nobody new may join a state that holds a non-durable op
+    asio::error_code ignored;
+    acceptor_.close(ignored);
     std::printf("server: FATAL: %s\n", why.c_str());
     std::fflush(stdout);
 }
@@ -151,17 +166,26 @@ void Server::commitPending() {
         on_broadcast(broadcast_seq_);
 }
 
+bool Server::tailFits(std::uint64_t ops) const {
+    return ops * kMaxOpFrameBytes <= config_.outbound_budget_bytes / 2;
+}
+
 const wire::Frame& Server::opFrame(std::uint64_t seq) const {
     return op_frames_[seq % op_frames_.size()];
 }
 
 const wire::SnapshotFrames& Server::joinSnapshot() {
+    // note: called after the journal commit (joins, resyncs inside the broadcast loop), so every
+    // op the authority holds is durable, even those whose broadcast is still in progress
+    TERRAIN_ASSERT(pending_.empty());
+    const std::uint64_t current = authority_.seq();
     // a cached snapshot serves while its successors are retained and it is not too far behind
-    const std::uint64_t current = broadcast_seq_;
+    // ... and while the ops after it fit well inside a session's budget (a join must not start
+    // as a slow consumer)
     const bool usable = snapshot_ && snapshot_->seq >= authority_.log().resumableFrom() &&
-                        current - snapshot_->seq <= config_.snapshot_cache_max_lag;
+                        current - snapshot_->seq <= config_.snapshot_cache_max_lag &&
+                        tailFits(current - snapshot_->seq);
     if (!usable) {
-        TERRAIN_ASSERT(authority_.seq() == current); // callers commit pending ops first
         snapshot_ = std::make_unique<wire::SnapshotFrames>(
             wire::buildSnapshotFrames(authority_.terrain(), current, config_.snapshot_chunk_bytes));
         ++stats_.snapshots_built;

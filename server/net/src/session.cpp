@@ -31,6 +31,7 @@ Session::Session(Server& server, asio::ip::tcp::socket socket, std::uint64_t id)
       deform_limiter_(server.config_.deform_rate_per_second, server.config_.deform_burst),
       frame_limiter_(server.config_.frame_rate_per_second, server.config_.frame_burst),
       repair_limiter_(server.config_.repair_rate_per_second, server.config_.repair_burst),
+      query_limiter_(server.config_.query_rate_per_second, server.config_.query_burst),
       timer_(socket_.get_executor()) {
     asio::error_code ec;
     const auto endpoint = socket_.remote_endpoint(ec);
@@ -71,13 +72,13 @@ void Session::readMore() {
 void Session::onRead(const asio::error_code& ec, std::size_t n) {
     if (state_ == State::kClosed)
         return;
+    if (state_ == State::kClosing)
+        return; // the Disconnect is being written; the write or the linger timer finishes
     if (ec) {
         // the peer left (or reset); nothing to say to it
         finish();
         return;
     }
-    if (state_ == State::kClosing)
-        return;
     reader_.commit(n);
     for (;;) {
         auto next = reader_.next();
@@ -174,18 +175,29 @@ void Session::onHello(const pb::Hello& hello) {
         close(pb::REASON_SHUTTING_DOWN, "the server is shutting down");
         return;
     }
+    if (server_.failed_) {
+        close(pb::REASON_UNAVAILABLE, "the server's journal failed: " + server_.failure_);
+        return;
+    }
     claims_ = *claims;
+    // a join needs every accepted op committed and broadcast first, so that the snapshot holds
+    // durable ops only; this session is not live yet, so that broadcast skips it
+    server_.commitPending();
+    if (state_ != State::kAwaitHello)
+        return;
+    if (server_.failed_) {
+        close(pb::REASON_UNAVAILABLE, "the server's journal failed: " + server_.failure_);
+        return;
+    }
     state_ = State::kLive;
     timer_.cancel();
     ++server_.stats_.sessions_live;
-    // a join needs every accepted op broadcast first, so that the snapshot holds durable ops only
-    server_.commitPending();
-    if (state_ != State::kLive)
-        return;
 
     const std::uint64_t current = server_.broadcast_seq_;
     std::uint64_t hash_then = 0;
+    // resume only when the missed ops fit well inside the budget; otherwise a snapshot is cheaper
     const bool resume = hello.has_last_seq() && hello.last_seq() <= current &&
+                        server_.tailFits(current - hello.last_seq()) &&
                         server_.authority_.log().hashAt(hello.last_seq(), hash_then) &&
                         hash_then == hello.last_hash();
     pb::Envelope welcome;
@@ -246,6 +258,15 @@ void Session::onDeform(const pb::DeformRequest& request) {
 }
 
 void Session::onHeightQuery(const pb::HeightQuery& query) {
+    if (!query_limiter_.tryConsume(now())) {
+        pb::Envelope reply;
+        reply.mutable_height_reply()->set_request_id(query.request_id());
+        reply.mutable_height_reply()->mutable_refused()->set_reason(pb::REASON_RATE_LIMITED);
+        reply.mutable_height_reply()->mutable_refused()->set_message(
+            "more height and ray queries per second than the limit");
+        sendControl(reply);
+        return;
+    }
     const Terrain& t = server_.authority_.terrain();
     const WorldSpec& spec = t.spec();
     const double sx = static_cast<double>(spec.spacing) / spec.units_per_metre;
@@ -277,7 +298,10 @@ void Session::onRayQuery(const pb::RayQuery& query) {
     const bool finite = std::all_of(
         std::begin(values), std::end(values), [](double v) { return std::isfinite(v); });
     const double max_metres = 1e7; // bounds the walk: no map is wider than 10^4 km
-    if (!finite || query.max_distance() < 0 || query.max_distance() > max_metres) {
+    if (!query_limiter_.tryConsume(now())) {
+        r->mutable_refused()->set_reason(pb::REASON_RATE_LIMITED);
+        r->mutable_refused()->set_message("more height and ray queries per second than the limit");
+    } else if (!finite || query.max_distance() < 0 || query.max_distance() > max_metres) {
         r->mutable_refused()->set_reason(pb::REASON_OUT_OF_RANGE);
         r->mutable_refused()->set_message(
             "ray origin, direction and max_distance must be finite, 0 <= max_distance <= 1e7");
@@ -299,6 +323,17 @@ void Session::onRayQuery(const pb::RayQuery& query) {
 void Session::onRepairRequest(const pb::RepairRequest& request) {
     if (!repair_limiter_.tryConsume(now())) {
         close(pb::REASON_RATE_LIMITED, "more repair requests per second than the limit");
+        return;
+    }
+    if (server_.failed_) {
+        close(pb::REASON_UNAVAILABLE, "the server's journal failed: " + server_.failure_);
+        return;
+    }
+    if (static_cast<std::size_t>(request.tiles_size()) > server_.config_.max_repair_tiles) {
+        close(
+            pb::REASON_OUT_OF_RANGE, "repair asks for " + std::to_string(request.tiles_size()) +
+                                         " tiles; the limit is " +
+                                         std::to_string(server_.config_.max_repair_tiles));
         return;
     }
     const Terrain& t = server_.authority_.terrain();
@@ -338,8 +373,12 @@ void Session::onSnapshotRequest() {
         close(pb::REASON_RATE_LIMITED, "more snapshot requests per second than the limit");
         return;
     }
+    if (server_.failed_) {
+        close(pb::REASON_UNAVAILABLE, "the server's journal failed: " + server_.failure_);
+        return;
+    }
     server_.commitPending();
-    if (state_ == State::kLive)
+    if (state_ == State::kLive && !server_.failed_)
         sendSnapshotAndTail();
 }
 
@@ -367,6 +406,8 @@ void Session::sendSnapshotAndTail() {
 
 void Session::sendTail(std::uint64_t after_seq) {
     sent_through_ = after_seq;
+    // note: inside a broadcast loop the snapshot may be ahead of broadcast_seq_; then there is
+    // no tail and the loop's later ops are skipped by sendOp (seq <= sent_through_)
     for (std::uint64_t seq = after_seq + 1; seq <= server_.broadcast_seq_; ++seq)
         sendOp(seq, server_.opFrame(seq));
 }
@@ -401,6 +442,16 @@ void Session::overBudget() {
 void Session::sendControl(const pb::Envelope& envelope) {
     if (state_ == State::kClosing || state_ == State::kClosed)
         return;
+    // replies cannot be replaced by a snapshot: a peer that asks but does not read is cut off
+    // once its backlog is over budget (one reply may take it over, never two)
+    if (queue_.budgetBytes() > server_.config_.outbound_budget_bytes) {
+        ++server_.stats_.slow_disconnects;
+        close(
+            pb::REASON_SLOW_CONSUMER, "replies queued over " +
+                                          std::to_string(server_.config_.outbound_budget_bytes) +
+                                          " bytes: the client does not read them");
+        return;
+    }
     enqueue(wire::encodeFrame(envelope), FrameClass::kControl);
 }
 
@@ -438,6 +489,11 @@ void Session::writeMore() {
                 self->finish();
                 return;
             }
+            // a client that has read its resync snapshot and keeps up may be resynced again later
+            // note: snapshot frames are not in budgetBytes(), so "no snapshot left" is checked too
+            if (self->queue_.totalBytes() == self->queue_.budgetBytes() &&
+                self->queue_.budgetBytes() < self->server_.config_.outbound_budget_bytes / 4)
+                self->resynced_since_drain_ = false;
             self->writeMore();
         });
 }

@@ -73,6 +73,7 @@ class Session : public std::enable_shared_from_this<Session> {
     RateLimiter deform_limiter_;
     RateLimiter frame_limiter_;
     RateLimiter repair_limiter_;
+    RateLimiter query_limiter_;
     asio::steady_timer timer_; // hello timeout, then close linger
     std::vector<asio::const_buffer> gather_;
 };

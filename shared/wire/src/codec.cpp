@@ -94,7 +94,8 @@ void opToWire(const DeformOp& op, pb::Op& out) {
 }
 
 void opToWire(const DeformOp& op, std::uint64_t seq, std::uint64_t world_hash, pb::OpApplied& out) {
-    out.set_seq(seq);
+    if (seq % kExplicitSeqEvery == 0)
+        out.set_seq(seq);
     out.set_world_hash(world_hash);
     out.set_kind(kindToWire(op.kind));
     out.set_center_x(coordToWire(op.center_x));
@@ -102,6 +103,10 @@ void opToWire(const DeformOp& op, std::uint64_t seq, std::uint64_t world_hash, p
     out.set_radius(static_cast<std::uint32_t>(op.radius));
     out.set_height(op.height);
     out.set_strength_minus_unit(strengthToWire(op.strength));
+}
+
+std::uint64_t appliedSeq(const pb::OpApplied& op, std::uint64_t current_seq) {
+    return op.seq() != 0 ? op.seq() : current_seq + 1;
 }
 
 Result<DeformOp> opFromWire(const pb::Op& op) {

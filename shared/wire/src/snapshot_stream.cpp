@@ -1,6 +1,8 @@
 #include <terrain/wire/compression.h>
 #include <terrain/wire/snapshot_stream.h>
 
+#include <zstd.h>
+
 #include <algorithm>
 #include <string>
 
@@ -45,12 +47,33 @@ buildSnapshotFrames(const Terrain& terrain, std::uint64_t seq, std::size_t chunk
     return out;
 }
 
+std::uint64_t maxSnapshotBytes(const WorldSpec& spec) {
+    constexpr std::uint64_t kHeader = 4 + 4 + 5 * 4 + 8 + 4;
+    constexpr std::uint64_t kMaxTileRecord =
+        4 + 8 + 65 * 65 * 4 + 4 + std::uint64_t{kTileCells} * kTileCells * (2 + 25 * 4);
+    return kHeader + static_cast<std::uint64_t>(spec.tileCount()) * kMaxTileRecord + 16;
+}
+
+struct SnapshotAssembler::Stream {
+    ZSTD_DCtx* ctx = ZSTD_createDCtx();
+    ~Stream() { ZSTD_freeDCtx(ctx); }
+};
+
+SnapshotAssembler::SnapshotAssembler(std::size_t max_raw_bytes)
+    : max_raw_bytes_(max_raw_bytes), stream_(std::make_unique<Stream>()) {}
+
+SnapshotAssembler::~SnapshotAssembler() = default;
+
 void SnapshotAssembler::reset() {
     active_ = false;
     next_chunk_ = 0;
     chunk_count_ = 0;
-    data_.clear();
-    data_.shrink_to_fit();
+    received_bytes_ = 0;
+    raw_filled_ = 0;
+    frame_done_ = false;
+    raw_.clear();
+    raw_.shrink_to_fit();
+    ZSTD_DCtx_reset(stream_->ctx, ZSTD_reset_session_only);
 }
 
 Status SnapshotAssembler::begin(const pb::SnapshotBegin& begin) {
@@ -60,7 +83,7 @@ Status SnapshotAssembler::begin(const pb::SnapshotBegin& begin) {
             ErrorCode::kOutOfRange, "snapshot of " + std::to_string(begin.raw_bytes()) +
                                         " bytes is above the client's limit of " +
                                         std::to_string(max_raw_bytes_));
-    if (begin.chunk_count() == 0 || begin.compressed_bytes() == 0)
+    if (begin.chunk_count() == 0 || begin.compressed_bytes() == 0 || begin.raw_bytes() == 0)
         return makeError(ErrorCode::kBadFormat, "snapshot announces no chunks");
     active_ = true;
     seq_ = begin.seq();
@@ -68,7 +91,6 @@ Status SnapshotAssembler::begin(const pb::SnapshotBegin& begin) {
     raw_bytes_ = begin.raw_bytes();
     compressed_bytes_ = begin.compressed_bytes();
     chunk_count_ = begin.chunk_count();
-    data_.reserve(static_cast<std::size_t>(compressed_bytes_));
     return Ok{};
 }
 
@@ -80,11 +102,32 @@ Status SnapshotAssembler::add(const pb::SnapshotChunk& chunk) {
             ErrorCode::kBadFormat, "snapshot chunk " + std::to_string(chunk.index()) +
                                        " arrived where chunk " + std::to_string(next_chunk_) +
                                        " of " + std::to_string(chunk_count_) + " was expected");
-    if (data_.size() + chunk.data().size() > compressed_bytes_)
+    if (received_bytes_ + chunk.data().size() > compressed_bytes_)
         return makeError(ErrorCode::kBadFormat, "snapshot chunks carry more than announced");
-    data_.insert(data_.end(), chunk.data().begin(), chunk.data().end());
+    received_bytes_ += chunk.data().size();
+    ZSTD_inBuffer in{chunk.data().data(), chunk.data().size(), 0};
+    while (in.pos < in.size) {
+        if (frame_done_)
+            return makeError(ErrorCode::kBadFormat, "snapshot data continues after its zstd frame");
+        // grow with the data actually decompressed, not with the announcement: a lying server
+        // costs what it sends, up to the announced (and limited) size
+        if (raw_filled_ == raw_.size() && raw_.size() < raw_bytes_)
+            raw_.resize(static_cast<std::size_t>(std::min<std::uint64_t>(
+                raw_bytes_, std::max<std::uint64_t>(2 * raw_.size(), std::uint64_t{1} << 20))));
+        ZSTD_outBuffer out{raw_.data(), raw_.size(), raw_filled_};
+        const std::size_t in_before = in.pos;
+        const std::size_t ret = ZSTD_decompressStream(stream_->ctx, &out, &in);
+        if (ZSTD_isError(ret))
+            return makeError(ErrorCode::kBadFormat, std::string("zstd: ") + ZSTD_getErrorName(ret));
+        const bool progressed = out.pos != raw_filled_ || ret == 0;
+        raw_filled_ = out.pos;
+        frame_done_ = ret == 0;
+        if (!progressed && in.pos == in_before)
+            return makeError(
+                ErrorCode::kSizeMismatch, "snapshot decompresses to more than announced");
+    }
     ++next_chunk_;
-    if (next_chunk_ == chunk_count_ && data_.size() != compressed_bytes_)
+    if (next_chunk_ == chunk_count_ && received_bytes_ != compressed_bytes_)
         return makeError(ErrorCode::kBadFormat, "snapshot chunks carry less than announced");
     return Ok{};
 }
@@ -94,14 +137,16 @@ Result<DecodedSnapshot> SnapshotAssembler::finish() {
         reset();
         return makeError(ErrorCode::kTruncated, "snapshot finished before its last chunk");
     }
-    Result<std::vector<std::uint8_t>> raw =
-        decompress(data_, static_cast<std::size_t>(raw_bytes_), max_raw_bytes_);
+    if (!frame_done_ || raw_filled_ != raw_bytes_) {
+        reset();
+        return makeError(
+            ErrorCode::kSizeMismatch, "snapshot zstd frame ends early or differs from its size");
+    }
+    std::vector<std::uint8_t> raw = std::move(raw_);
     const std::uint64_t seq = seq_;
     const std::uint64_t hash = world_hash_;
     reset();
-    if (!raw)
-        return raw.error();
-    Result<DecodedSnapshot> decoded = decodeSnapshot(*raw);
+    Result<DecodedSnapshot> decoded = decodeSnapshot(raw);
     if (!decoded)
         return decoded.error();
     if (decoded->sequence != seq || decoded->terrain.worldHash() != hash)

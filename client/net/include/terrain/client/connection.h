@@ -32,6 +32,8 @@ struct ConnectionConfig {
     double reconnect_delay_seconds = 0.2;
     /// Repairs tried before falling back to a snapshot.
     int max_repair_rounds = 3;
+    /// Tiles per RepairRequest (the server's limit is 64); more are asked in later rounds.
+    std::size_t max_repair_tiles = 64;
 };
 
 struct ConnectionStats {
@@ -52,6 +54,7 @@ struct HeightAnswer {
     bool inside = false;
     double height = 0.0;
     double normal[3] = {0.0, 0.0, 1.0};
+    std::string refused; ///< non-empty when the query was refused (rate limit)
 };
 
 struct RayAnswer {
@@ -141,6 +144,7 @@ class Connection : public std::enable_shared_from_this<Connection> {
     bool awaiting_snapshot_ = false;
     bool repair_in_flight_ = false;
     int repair_rounds_ = 0;
+    std::size_t repair_tiles_requested_ = 0;
     std::uint32_t next_request_id_ = 1;
     std::uint64_t generation_ = 0; // bumps on each new socket; stale handlers ignore themselves
     std::uint64_t player_id_ = 0;

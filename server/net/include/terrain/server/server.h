@@ -41,6 +41,10 @@ struct ServerConfig {
     double frame_burst = 4000.0;
     double repair_rate_per_second = 2.0; ///< repair and snapshot requests
     double repair_burst = 6.0;
+    /// Tiles one RepairRequest may name (bounds the work and the reply of one request).
+    std::size_t max_repair_tiles = 64;
+    double query_rate_per_second = 200.0; ///< height and ray queries
+    double query_burst = 400.0;
     double hello_timeout_seconds = 5.0;
     double close_linger_seconds = 2.0; ///< time a closing session gets to read its Disconnect
     std::size_t snapshot_chunk_bytes = wire::kDefaultSnapshotChunkBytes;
@@ -117,6 +121,10 @@ class Server {
     void fail(const std::string& why);
     /// A snapshot at a seq whose successors are all retained (rebuilt when too old).
     const wire::SnapshotFrames& joinSnapshot();
+    /// Upper bound of one OpApplied frame (prefix + envelope), for budget arithmetic.
+    static constexpr std::uint64_t kMaxOpFrameBytes = 64;
+    /// True when `ops` broadcast frames take at most half a session's budget.
+    bool tailFits(std::uint64_t ops) const;
     /// The broadcast frame of op `seq` (retained).
     const wire::Frame& opFrame(std::uint64_t seq) const;
 
@@ -133,11 +141,14 @@ class Server {
     std::uint64_t last_journal_snapshot_seq_ = 0;
     std::vector<wire::Frame> op_frames_; // ring parallel to the authority's op log
     std::unique_ptr<wire::SnapshotFrames> snapshot_;
+    void scheduleAccept();
+
     bool shutting_down_ = false;
     bool failed_ = false;
     std::string failure_;
     std::function<void()> shutdown_done_;
     asio::steady_timer shutdown_timer_;
+    asio::steady_timer accept_retry_timer_;
     ServerStats stats_;
     std::uint64_t next_session_id_ = 1;
 };

@@ -10,6 +10,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace terrain::wire {
@@ -30,15 +31,26 @@ SnapshotFrames buildSnapshotFrames(
     std::uint64_t seq,
     std::size_t chunk_bytes = kDefaultSnapshotChunkBytes);
 
+/// Largest core snapshot a world of this spec can have (every cell patched): the client's bound
+/// on what a server may announce.
+std::uint64_t maxSnapshotBytes(const WorldSpec& spec);
+
 /// Client side. Refuses out-of-order chunks, more data than announced, and sizes above limits.
+/// Chunks are decompressed as they arrive (zstd streaming), so decompression overlaps the
+/// transfer and the compressed bytes are never held whole.
 class SnapshotAssembler {
   public:
-    explicit SnapshotAssembler(std::size_t max_raw_bytes) : max_raw_bytes_(max_raw_bytes) {}
+    explicit SnapshotAssembler(std::size_t max_raw_bytes);
+    ~SnapshotAssembler();
+    SnapshotAssembler(const SnapshotAssembler&) = delete;
+    SnapshotAssembler& operator=(const SnapshotAssembler&) = delete;
 
     /// Errors: kOutOfRange (sizes above the limit), kBadFormat (no chunks).
     Status begin(const pb::SnapshotBegin& begin);
     /// Errors: kBadFormat (no begin, wrong index, more bytes than announced).
     Status add(const pb::SnapshotChunk& chunk);
+    /// Lowers the limit (the client learns the world's size from Welcome).
+    void setMaxRawBytes(std::size_t max_raw_bytes) { max_raw_bytes_ = max_raw_bytes; }
     bool active() const { return active_; }
     bool complete() const { return active_ && next_chunk_ == chunk_count_; }
     /// Decompresses and decodes (every core check); the result's seq and hash must equal the
@@ -55,7 +67,12 @@ class SnapshotAssembler {
     std::uint64_t compressed_bytes_ = 0;
     std::uint32_t chunk_count_ = 0;
     std::uint32_t next_chunk_ = 0;
-    std::vector<std::uint8_t> data_;
+    std::uint64_t received_bytes_ = 0;
+    std::size_t raw_filled_ = 0;
+    bool frame_done_ = false;
+    std::vector<std::uint8_t> raw_;
+    struct Stream; // the zstd decompression context
+    std::unique_ptr<Stream> stream_;
 };
 
 } // namespace terrain::wire
