@@ -11,6 +11,7 @@
 #include <terrain/client/connection.h>
 #include <terrain/client/replica.h>
 #include <terrain/io/dem_import.h>
+#include <terrain/journal/journal.h>
 #include <terrain/op_script.h>
 #include <terrain/procedural_map.h>
 #include <terrain/server/auth_token.h>
@@ -19,9 +20,11 @@
 #include <terrain/wire/snapshot_stream.h>
 
 #include <CLI/CLI.hpp>
-#include <asio.hpp>
+#include <malloc.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <asio.hpp>
 #include <atomic>
 #include <chrono>
 #include <cinttypes>
@@ -32,7 +35,6 @@
 #include <fstream>
 #include <functional>
 #include <future>
-#include <malloc.h>
 #include <map>
 #include <memory>
 #include <numeric>
@@ -41,6 +43,7 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <type_traits>
 #include <unordered_map>
 #include <vector>
 
@@ -63,87 +66,30 @@ double msSince(Clock::time_point t) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// small JSON writer (objects keep insertion order)
+// JSON output: nlohmann::ordered_json (keys keep insertion order) with two helpers
 
-class Json {
-  public:
-    static Json object() { return Json(Kind::kObject); }
-    static Json array() { return Json(Kind::kArray); }
-    static Json number(double v) {
-        Json j(Kind::kRaw);
-        char buf[64];
-        if (v == static_cast<double>(static_cast<std::int64_t>(v)) && std::abs(v) < 1e15)
-            std::snprintf(buf, sizeof buf, "%" PRId64, static_cast<std::int64_t>(v));
-        else
-            std::snprintf(buf, sizeof buf, "%.6g", v);
-        j.raw_ = buf;
-        return j;
-    }
-    static Json integer(std::uint64_t v) {
-        Json j(Kind::kRaw);
-        j.raw_ = std::to_string(v);
-        return j;
-    }
-    static Json boolean(bool v) {
-        Json j(Kind::kRaw);
-        j.raw_ = v ? "true" : "false";
-        return j;
-    }
-    static Json string(const std::string& s) {
-        Json j(Kind::kRaw);
-        j.raw_ = "\"";
-        for (char c : s) {
-            if (c == '"' || c == '\\')
-                j.raw_ += '\\';
-            if (c == '\n') {
-                j.raw_ += "\\n";
-                continue;
-            }
-            j.raw_ += c;
-        }
-        j.raw_ += '"';
-        return j;
-    }
-    Json& set(const std::string& key, Json value) {
-        members_.emplace_back(key, std::move(value));
+struct Json : nlohmann::ordered_json {
+    using nlohmann::ordered_json::basic_json;
+    Json(nlohmann::ordered_json j) : nlohmann::ordered_json(std::move(j)) {}
+    static Json object() { return Json(nlohmann::ordered_json::object()); }
+    static Json array() { return Json(nlohmann::ordered_json::array()); }
+    template <typename T> Json& set(const std::string& key, T&& value) {
+        (*this)[key] = plain(std::forward<T>(value));
         return *this;
     }
-    Json& set(const std::string& key, double v) { return set(key, number(v)); }
-    Json& set(const std::string& key, int v) { return set(key, number(v)); }
-    Json& set(const std::string& key, std::uint64_t v) { return set(key, integer(v)); }
-    Json& set(const std::string& key, std::size_t v, int) { return set(key, integer(v)); }
-    Json& set(const std::string& key, bool v) { return set(key, boolean(v)); }
-    Json& set(const std::string& key, const char* v) { return set(key, string(v)); }
-    Json& set(const std::string& key, const std::string& v) { return set(key, string(v)); }
-    Json& push(Json value) {
-        members_.emplace_back("", std::move(value));
+    template <typename T> Json& push(T&& value) {
+        push_back(plain(std::forward<T>(value)));
         return *this;
-    }
-    std::string dump(int indent = 0) const {
-        if (kind_ == Kind::kRaw)
-            return raw_;
-        const bool obj = kind_ == Kind::kObject;
-        if (members_.empty())
-            return obj ? "{}" : "[]";
-        const std::string pad(static_cast<std::size_t>(indent + 2), ' ');
-        std::string out = obj ? "{\n" : "[\n";
-        for (std::size_t i = 0; i < members_.size(); ++i) {
-            out += pad;
-            if (obj)
-                out += string(members_[i].first).raw_ + ": ";
-            out += members_[i].second.dump(indent + 2);
-            out += i + 1 < members_.size() ? ",\n" : "\n";
-        }
-        out += std::string(static_cast<std::size_t>(indent), ' ') + (obj ? "}" : "]");
-        return out;
     }
 
   private:
-    enum class Kind { kObject, kArray, kRaw };
-    explicit Json(Kind k) : kind_(k) {}
-    Kind kind_;
-    std::string raw_;
-    std::vector<std::pair<std::string, Json>> members_;
+    // note: a Json must be passed on as its base, or nlohmann takes it for a string-like type
+    template <typename T> static nlohmann::ordered_json plain(T&& value) {
+        if constexpr (std::is_base_of_v<nlohmann::ordered_json, std::decay_t<T>>)
+            return static_cast<const nlohmann::ordered_json&>(value);
+        else
+            return nlohmann::ordered_json(std::forward<T>(value));
+    }
 };
 
 struct Summary {
@@ -203,7 +149,9 @@ std::string isoNow() {
     std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
     return buf;
 }
-double mib(std::size_t bytes) { return static_cast<double>(bytes) / (1024.0 * 1024.0); }
+double mib(std::size_t bytes) {
+    return static_cast<double>(bytes) / (1024.0 * 1024.0);
+}
 
 // ---------------------------------------------------------------------------------------------
 // tokens (same scheme as tests/support/net_harness.h, without its gtest dependency)
@@ -258,13 +206,15 @@ class ServerThread {
     ServerThread(
         Terrain terrain,
         server::ServerConfig config,
-        const std::function<void(server::Authority&)>& prepare = {}) {
+        const std::function<void(server::Authority&)>& prepare = {},
+        journal::Journal* journal = nullptr) {
         config.token_secret = benchSecret();
-        authority_ = std::make_unique<server::Authority>(std::move(terrain), 0, config.op_log_capacity);
+        authority_ =
+            std::make_unique<server::Authority>(std::move(terrain), 0, config.op_log_capacity);
         if (prepare)
             prepare(*authority_);
         thread_.call([&] {
-            server_ = std::make_unique<server::Server>(thread_.io(), config, *authority_, nullptr);
+            server_ = std::make_unique<server::Server>(thread_.io(), config, *authority_, journal);
             server_->on_broadcast = [this](std::uint64_t) {
                 queued_peak_ = std::max(queued_peak_, server_->queuedBytes());
             };
@@ -293,11 +243,21 @@ class ServerThread {
         thread_.join();
     }
     template <typename F> auto call(F f) -> decltype(f()) { return thread_.call(std::move(f)); }
-    std::uint16_t port() { return call([this] { return server_->port(); }); }
-    std::uint64_t seq() { return call([this] { return server_->broadcastSeq(); }); }
-    std::uint64_t worldHash() { return call([this] { return authority_->terrain().worldHash(); }); }
-    server::ServerStats stats() { return call([this] { return server_->stats(); }); }
-    std::size_t queuedBytes() { return call([this] { return server_->queuedBytes(); }); }
+    std::uint16_t port() {
+        return call([this] { return server_->port(); });
+    }
+    std::uint64_t seq() {
+        return call([this] { return server_->broadcastSeq(); });
+    }
+    std::uint64_t worldHash() {
+        return call([this] { return authority_->terrain().worldHash(); });
+    }
+    server::ServerStats stats() {
+        return call([this] { return server_->stats(); });
+    }
+    std::size_t queuedBytes() {
+        return call([this] { return server_->queuedBytes(); });
+    }
     std::size_t takeQueuedPeak() {
         return call([this] {
             const std::size_t p = queued_peak_;
@@ -377,8 +337,9 @@ struct BenchClient final : Receiver {
         };
         connection->on_disconnect = [this](const std::string& why) {
             ++disconnects;
-            std::fprintf(stderr, "net_bench: client %" PRIu64 " disconnected: %s\n",
-                         connection->playerId(), why.c_str());
+            std::fprintf(
+                stderr, "net_bench: client %" PRIu64 " disconnected: %s\n", connection->playerId(),
+                why.c_str());
         };
         started_ns = nowNs();
         connection->start();
@@ -391,10 +352,11 @@ struct BenchClient final : Receiver {
                         !replica.diverged();
         if (!ok && why) {
             char buf[200];
-            std::snprintf(buf, sizeof buf,
-                          "player %" PRIu64 ": ready %d seq %" PRIu64 " hash %016" PRIx64 " diverged %d",
-                          connection->playerId(), replica.ready() ? 1 : 0, replica.seq(),
-                          replica.worldHash(), replica.diverged() ? 1 : 0);
+            std::snprintf(
+                buf, sizeof buf,
+                "player %" PRIu64 ": ready %d seq %" PRIu64 " hash %016" PRIx64 " diverged %d",
+                connection->playerId(), replica.ready() ? 1 : 0, replica.seq(), replica.worldHash(),
+                replica.diverged() ? 1 : 0);
             *why = buf;
         }
         return ok;
@@ -436,10 +398,11 @@ struct LightViewer final : Receiver {
                 }
                 asio::error_code ignored;
                 socket.set_option(asio::ip::tcp::no_delay(true), ignored);
-                asio::async_write(socket, asio::buffer(hello), [this](const asio::error_code& wec, std::size_t) {
-                    if (wec && wec != asio::error::operation_aborted)
-                        fail("write: " + wec.message());
-                });
+                asio::async_write(
+                    socket, asio::buffer(hello), [this](const asio::error_code& wec, std::size_t) {
+                        if (wec && wec != asio::error::operation_aborted)
+                            fail("write: " + wec.message());
+                    });
                 read();
             });
     }
@@ -457,7 +420,8 @@ struct LightViewer final : Receiver {
     void read() {
         std::span<std::uint8_t> space = reader.prepare(64 << 10);
         socket.async_read_some(
-            asio::buffer(space.data(), space.size()), [this](const asio::error_code& ec, std::size_t n) {
+            asio::buffer(space.data(), space.size()),
+            [this](const asio::error_code& ec, std::size_t n) {
                 if (ec == asio::error::operation_aborted)
                     return;
                 if (ec) {
@@ -473,7 +437,8 @@ struct LightViewer final : Receiver {
                     }
                     if (!next->has_value())
                         break;
-                    const std::size_t frame_bytes = (*next)->size() + wire::framePrefixSize((*next)->size());
+                    const std::size_t frame_bytes =
+                        (*next)->size() + wire::framePrefixSize((*next)->size());
                     auto env = wire::decodeEnvelope(**next);
                     if (!env) {
                         fail("bad envelope: " + env.error().message);
@@ -513,7 +478,8 @@ struct LightViewer final : Receiver {
     std::uint64_t opBytesIn() const override { return op_bytes_in; }
     std::uint64_t opsApplied() const override { return ops; }
     bool matches(std::uint64_t seq, std::uint64_t hash, std::string* why) const override {
-        const bool ok = live && last_seq.load() == seq && last_hash == hash && gaps == 0 && closed.empty();
+        const bool ok =
+            live && last_seq.load() == seq && last_hash == hash && gaps == 0 && closed.empty();
         if (!ok && why)
             *why = "light viewer: live " + std::to_string(live) + " seq " +
                    std::to_string(last_seq.load()) + " gaps " + std::to_string(gaps) + " " + closed;
@@ -629,7 +595,8 @@ Verification verify(ServerThread& srv, ClientPool& pool) {
         v.hash_mismatches += c->replica.stats().hash_mismatches;
         v.stale_ops += c->replica.stats().ops_stale;
         v.repair_requests += c->connection->stats().repair_requests;
-        v.extra_snapshots += c->connection->stats().snapshots > 0 ? c->connection->stats().snapshots - 1 : 0;
+        v.extra_snapshots +=
+            c->connection->stats().snapshots > 0 ? c->connection->stats().snapshots - 1 : 0;
     });
     v.all_match = v.clients_differing == 0;
     return v;
@@ -718,8 +685,9 @@ struct DeformRun {
             sendOne(c);
         if (next >= ops.size())
             return;
-        timer->expires_at(paced_start + std::chrono::duration_cast<Clock::duration>(
-                                            std::chrono::duration<double>(static_cast<double>(next) / rate)));
+        timer->expires_at(
+            paced_start + std::chrono::duration_cast<Clock::duration>(
+                              std::chrono::duration<double>(static_cast<double>(next) / rate)));
         timer->async_wait([this, &c](const asio::error_code& ec) {
             if (!ec)
                 tick(c);
@@ -747,10 +715,10 @@ struct FanoutResult {
     std::size_t accepted = 0;
     std::size_t refused = 0;
     std::string first_refusal;
-    double seconds = 0.0;        // first send -> last op applied on every client
-    double accept_seconds = 0.0; // first send -> last reply
-    Summary latency_ms;          // send -> applied on all clients
-    Summary first_client_ms;     // send -> applied on the first client (usually the deformer)
+    double seconds = 0.0;            // first send -> last op applied on every client
+    double accept_seconds = 0.0;     // first send -> last reply
+    Summary latency_ms;              // send -> applied on all clients
+    Summary first_client_ms;         // send -> applied on the first client (usually the deformer)
     std::size_t latency_missing = 0; // ops some client never reported applying
     std::vector<std::uint32_t> frame_bytes; // client 1's per-op OpApplied frame bytes
     std::uint64_t op_bytes_in_total = 0;    // over all clients
@@ -789,7 +757,8 @@ FanoutResult runDeform(
         return 0;
     });
     const std::size_t n = run.ops.size();
-    bool ok = waitFor([&] { return run.answered.load(std::memory_order_acquire) == n; }, timeout_seconds);
+    bool ok =
+        waitFor([&] { return run.answered.load(std::memory_order_acquire) == n; }, timeout_seconds);
     std::uint64_t final_seq = 0;
     if (!ok) {
         r.failure = "deform replies: " + std::to_string(run.answered.load()) + " of " +
@@ -828,7 +797,8 @@ FanoutResult runDeform(
                 const std::uint64_t s = run.seq[k];
                 if (s == 0)
                     continue;
-                const std::int64_t t = s > base && s - base <= c.applied_ns.size() ? c.applied_ns[s - base - 1] : 0;
+                const std::int64_t t =
+                    s > base && s - base <= c.applied_ns.size() ? c.applied_ns[s - base - 1] : 0;
                 if (t == 0) {
                     missing[k] = true;
                     continue;
@@ -886,10 +856,12 @@ Json fanoutJson(const FanoutResult& r, std::size_t clients, std::size_t window, 
     if (!r.first_refusal.empty())
         j.set("first_refusal", r.first_refusal);
     j.set("seconds", r.seconds);
-    j.set("ops_per_second_fanned_out",
-          r.seconds > 0 ? static_cast<double>(r.accepted) / r.seconds : 0.0);
-    j.set("ops_per_second_accepted",
-          r.accept_seconds > 0 ? static_cast<double>(r.accepted) / r.accept_seconds : 0.0);
+    j.set(
+        "ops_per_second_fanned_out",
+        r.seconds > 0 ? static_cast<double>(r.accepted) / r.seconds : 0.0);
+    j.set(
+        "ops_per_second_accepted",
+        r.accept_seconds > 0 ? static_cast<double>(r.accepted) / r.accept_seconds : 0.0);
     j.set("latency_all_clients_ms", toJson(r.latency_ms));
     j.set("latency_first_client_ms", toJson(r.first_client_ms));
     j.set("latency_missing_ops", static_cast<std::uint64_t>(r.latency_missing));
@@ -908,10 +880,10 @@ Json bytesJson(const FanoutResult& r, Summary* out) {
     j.set("median", s.p50).set("min", s.min).set("max", s.max).set("mean", s.mean);
     j.set("all_clients_op_bytes_in", r.op_bytes_in_total);
     j.set("all_clients_ops_applied", r.ops_applied_total);
-    j.set("all_clients_mean",
-          r.ops_applied_total ? static_cast<double>(r.op_bytes_in_total) /
-                                    static_cast<double>(r.ops_applied_total)
-                              : 0.0);
+    j.set(
+        "all_clients_mean", r.ops_applied_total ? static_cast<double>(r.op_bytes_in_total) /
+                                                      static_cast<double>(r.ops_applied_total)
+                                                : 0.0);
     return j;
 }
 
@@ -940,11 +912,11 @@ server::ServerConfig benchConfig() {
 }
 
 void printLatency(const char* name, const FanoutResult& r) {
-    std::printf("%-28s %8.1f ops/s  all-clients latency p50 %7.2f  p99 %7.2f  max %7.2f ms  "
-                "(%zu/%zu ops, missing %zu)\n",
-                name, r.seconds > 0 ? static_cast<double>(r.accepted) / r.seconds : 0.0,
-                r.latency_ms.p50, r.latency_ms.p99, r.latency_ms.max, r.accepted, r.ops,
-                r.latency_missing);
+    std::printf(
+        "%-28s %8.1f ops/s  all-clients latency p50 %7.2f  p99 %7.2f  max %7.2f ms  "
+        "(%zu/%zu ops, missing %zu)\n",
+        name, r.seconds > 0 ? static_cast<double>(r.accepted) / r.seconds : 0.0, r.latency_ms.p50,
+        r.latency_ms.p99, r.latency_ms.max, r.accepted, r.ops, r.latency_missing);
 }
 
 } // namespace
@@ -965,24 +937,31 @@ int main(int argc, char** argv) {
     bool quick = false;
     std::string dem_dir = TERRAIN_DEM_DIR;
     app.add_option("--out", out_path, "JSON output path");
-    auto* clients_opt = app.add_option("--clients", clients, "clients in the fan-out (1 deformer + viewers)")
-                            ->check(CLI::Range(2, 1000));
-    auto* ops_opt = app.add_option("--ops", ops, "deform ops in the windowed fan-out run to full clients")
-                        ->check(CLI::Range(1, 1000000));
+    auto* clients_opt =
+        app.add_option("--clients", clients, "clients in the fan-out (1 deformer + viewers)")
+            ->check(CLI::Range(2, 1000));
+    auto* ops_opt =
+        app.add_option("--ops", ops, "deform ops in the windowed fan-out run to full clients")
+            ->check(CLI::Range(1, 1000000));
     auto* light_ops_opt =
-        app.add_option("--light-ops", light_ops, "deform ops in the windowed fan-out run to light viewers")
+        app.add_option(
+               "--light-ops", light_ops, "deform ops in the windowed fan-out run to light viewers")
             ->check(CLI::Range(1, 1000000));
     app.add_option("--window", window, "outstanding deform requests")->check(CLI::Range(1, 4096));
     app.add_option("--client-threads", client_threads, "io threads the clients are spread over")
         ->check(CLI::Range(1, 64));
-    app.add_option("--paced-rate", paced_rate, "ops per second of the paced run")->check(CLI::PositiveNumber);
+    app.add_option("--paced-rate", paced_rate, "ops per second of the paced run")
+        ->check(CLI::PositiveNumber);
     auto* paced_opt = app.add_option("--paced-seconds", paced_seconds, "length of the paced run")
                           ->check(CLI::NonNegativeNumber);
     app.add_option("--join-craters", join_craters, "craters applied to the SRTM map before joins")
         ->check(CLI::Range(0, 1000000));
-    app.add_option("--srtm-ops", srtm_ops, "crater ops in the SRTM wire-bytes run")->check(CLI::Range(1, 1000000));
+    app.add_option("--srtm-ops", srtm_ops, "crater ops in the SRTM wire-bytes run")
+        ->check(CLI::Range(1, 1000000));
     app.add_option("--dem-dir", dem_dir, "folder holding srtm_n44w072/");
-    app.add_flag("--quick", quick, "smoke test: 16 clients, 100 ops (300 light), 2 s paced runs, 100 SRTM ops");
+    app.add_flag(
+        "--quick", quick,
+        "smoke test: 16 clients, 100 ops (300 light), 2 s paced runs, 100 SRTM ops");
     CLI11_PARSE(app, argc, argv);
     if (quick) {
         if (clients_opt->count() == 0)
@@ -1004,7 +983,8 @@ int main(int argc, char** argv) {
     {
         Json machine = Json::object();
         machine.set("cpu", cpuModel());
-        machine.set("hardware_threads", static_cast<std::uint64_t>(std::thread::hardware_concurrency()));
+        machine.set(
+            "hardware_threads", static_cast<std::uint64_t>(std::thread::hardware_concurrency()));
         root.set("machine", std::move(machine));
         Json cfg = Json::object();
         cfg.set("quick", quick);
@@ -1022,8 +1002,10 @@ int main(int argc, char** argv) {
         root.set("config", std::move(cfg));
     }
 
-    std::printf("net_bench: %d clients (%d threads), %d ops to full clients, %d to light viewers, "
-                "window %d\n", clients, client_threads, ops, light_ops, window);
+    std::printf(
+        "net_bench: %d clients (%d threads), %d ops to full clients, %d to light viewers, "
+        "window %d\n",
+        clients, client_threads, ops, light_ops, window);
     const std::size_t rss_start = rssBytes();
     Json memory = Json::object();
     Json wire_bytes = Json::object();
@@ -1059,8 +1041,9 @@ int main(int argc, char** argv) {
             failed = true;
         }
         const std::size_t rss_clients = rssBytes();
-        FanoutResult fan = runDeform(srv, pool, grenadeCraters(spec, light_ops, 11),
-                                     static_cast<std::size_t>(window), 0.0, 120.0);
+        FanoutResult fan = runDeform(
+            srv, pool, grenadeCraters(spec, light_ops, 11), static_cast<std::size_t>(window), 0.0,
+            120.0);
         printLatency("light fan-out (windowed)", fan);
         FanoutResult paced;
         if (paced_ops > 0) {
@@ -1069,15 +1052,18 @@ int main(int argc, char** argv) {
         }
         for (const FanoutResult* r : {&fan, &paced})
             if (r->ops > 0 && (!r->completed || !r->check.all_match)) {
-                std::fprintf(stderr, "net_bench: FAIL light fan-out: %s; %d receivers differ\n",
-                             r->failure.c_str(), r->check.clients_differing);
+                std::fprintf(
+                    stderr, "net_bench: FAIL light fan-out: %s; %d receivers differ\n",
+                    r->failure.c_str(), r->check.clients_differing);
                 for (const auto& n : r->check.notes)
                     std::fprintf(stderr, "  %s\n", n.c_str());
                 failed = true;
             }
         Json f = fanoutJson(fan, pool.size(), static_cast<std::size_t>(window), 0.0);
-        f.set("receivers", "1 full client (the deformer, with a replica) + light viewers (raw socket, "
-                           "decode each OpApplied, check seq order and the last hash; apply nothing)");
+        f.set(
+            "receivers",
+            "1 full client (the deformer, with a replica) + light viewers (raw socket, "
+            "decode each OpApplied, check seq order and the last hash; apply nothing)");
         f.set("join_all_ms", connect_ms);
         f.set("server_queued_bytes_peak_join", static_cast<std::uint64_t>(queued_peak_connect));
         f.set("rss_server_only_bytes", static_cast<std::uint64_t>(rss_server));
@@ -1090,6 +1076,70 @@ int main(int argc, char** argv) {
         }
         pool.clear();
         srv.stop();
+    }
+    malloc_trim(0);
+
+    // ---------------- 1c: the same light fan-out with the journal on (group commit)
+    // ----------------
+    {
+        Json durability_json = Json::object();
+        for (const journal::Durability d :
+             {journal::Durability::kWrite, journal::Durability::kFsync}) {
+            const std::filesystem::path dir =
+                std::filesystem::temp_directory_path() /
+                ("net_bench_journal_" + std::string(journal::toString(d)) + "_" +
+                 std::to_string(::getpid()));
+            std::filesystem::remove_all(dir);
+            Terrain map = std::move(*makeProceduralMap(ProceduralMapOptions{}));
+            const WorldSpec spec = map.spec();
+            auto opened = journal::Journal::open(dir, {d, 2});
+            if (!opened || !opened->initialize(map, 0)) {
+                std::fprintf(stderr, "net_bench: cannot open a journal in %s\n", dir.c_str());
+                failed = true;
+                continue;
+            }
+            journal::Journal j = std::move(*opened);
+            ServerThread srv(std::move(map), benchConfig(), {}, &j);
+            ClientPool pool(client_threads);
+            pool.add(srv.port(), token(300, Role::kDeformer));
+            for (int i = 1; i < clients; ++i)
+                pool.addLight(
+                    srv.port(), token(static_cast<std::uint64_t>(300 + i), Role::kViewer));
+            if (!allSynced(srv, pool, 120.0)) {
+                std::fprintf(stderr, "net_bench: FAIL: journaled run did not join\n");
+                failed = true;
+            }
+            const std::string name = std::string("journal ") + journal::toString(d);
+            FanoutResult fan = runDeform(
+                srv, pool, grenadeCraters(spec, light_ops / 2, 21),
+                static_cast<std::size_t>(window), 0.0, 120.0);
+            printLatency((name + " (windowed)").c_str(), fan);
+            FanoutResult paced;
+            if (paced_ops > 0) {
+                paced =
+                    runDeform(srv, pool, grenadeCraters(spec, paced_ops, 22), 0, paced_rate, 60.0);
+                printLatency((name + " (paced)").c_str(), paced);
+            }
+            for (const FanoutResult* r : {&fan, &paced})
+                if (r->ops > 0 && (!r->completed || !r->check.all_match)) {
+                    std::fprintf(
+                        stderr, "net_bench: FAIL %s: %s\n", name.c_str(), r->failure.c_str());
+                    failed = true;
+                }
+            Json one = Json::object();
+            one.set(
+                "windowed", fanoutJson(fan, pool.size(), static_cast<std::size_t>(window), 0.0));
+            if (paced_ops > 0)
+                one.set("paced", fanoutJson(paced, pool.size(), 0, paced_rate));
+            pool.clear();
+            srv.stop();
+            one.set("commits", static_cast<std::uint64_t>(j.stats().commits));
+            one.set("fsyncs", static_cast<std::uint64_t>(j.stats().fsyncs));
+            one.set("records", static_cast<std::uint64_t>(j.stats().records_written));
+            durability_json.set(journal::toString(d), std::move(one));
+            std::filesystem::remove_all(dir);
+        }
+        root.set("fanout_light_journaled", std::move(durability_json));
     }
     malloc_trim(0);
 
@@ -1111,7 +1161,10 @@ int main(int argc, char** argv) {
         const auto connect_start = Clock::now();
         std::size_t queued_peak_connect = 0;
         for (int i = 0; i < clients; ++i)
-            pool.add(port, token(static_cast<std::uint64_t>(100 + i), i == 0 ? Role::kDeformer : Role::kViewer));
+            pool.add(
+                port,
+                token(
+                    static_cast<std::uint64_t>(100 + i), i == 0 ? Role::kDeformer : Role::kViewer));
         // poll the server's queue while the joins stream
         const bool joined = waitFor(
             [&] {
@@ -1129,7 +1182,8 @@ int main(int argc, char** argv) {
         }
         std::vector<double> join_ms;
         for (std::size_t i = 0; i < pool.size(); ++i)
-            join_ms.push_back(static_cast<double>(pool[i].joined_ns.load() - pool[i].started_ns) * 1e-6);
+            join_ms.push_back(
+                static_cast<double>(pool[i].joined_ns.load() - pool[i].started_ns) * 1e-6);
         const Summary joins = summarize(join_ms);
         const std::size_t rss_clients = rssBytes();
         std::size_t replica_bytes = 0;
@@ -1142,16 +1196,19 @@ int main(int argc, char** argv) {
             return wire::buildSnapshotFrames(srv.authority().terrain(), srv.server().broadcastSeq())
                 .totalBytes();
         });
-        std::printf("joined %d clients on %dx%d in %.0f ms (per client p50 %.0f ms, max %.0f ms)\n",
-                    clients, spec.width, spec.height, connect_ms, joins.p50, joins.max);
+        std::printf(
+            "joined %d clients on %dx%d in %.0f ms (per client p50 %.0f ms, max %.0f ms)\n",
+            clients, spec.width, spec.height, connect_ms, joins.p50, joins.max);
 
         // 1. windowed fan-out
-        FanoutResult fan = runDeform(srv, pool, grenadeCraters(spec, ops, 1), static_cast<std::size_t>(window), 0.0, 120.0);
+        FanoutResult fan = runDeform(
+            srv, pool, grenadeCraters(spec, ops, 1), static_cast<std::size_t>(window), 0.0, 120.0);
         printLatency("full fan-out (windowed)", fan);
         if (!fan.completed || !fan.check.all_match || fan.check.hash_mismatches != 0) {
-            std::fprintf(stderr, "net_bench: FAIL fan-out: %s; %d clients differ, %" PRIu64
-                                 " hash mismatches\n",
-                         fan.failure.c_str(), fan.check.clients_differing, fan.check.hash_mismatches);
+            std::fprintf(
+                stderr,
+                "net_bench: FAIL fan-out: %s; %d clients differ, %" PRIu64 " hash mismatches\n",
+                fan.failure.c_str(), fan.check.clients_differing, fan.check.hash_mismatches);
             for (const auto& n : fan.check.notes)
                 std::fprintf(stderr, "  %s\n", n.c_str());
             failed = true;
@@ -1195,7 +1252,9 @@ int main(int argc, char** argv) {
         }
         Json d = bytesJson(fan, &default_bytes);
         d.set("map", "procedural 1025x1025, 1 m; craters R 1-8 m");
-        d.set("note", "OpApplied frames as received by one viewer: varint prefix + Envelope (seq, op, world hash)");
+        d.set(
+            "note", "OpApplied frames as received by one viewer: varint prefix + Envelope (seq, "
+                    "op, world hash)");
         wire_bytes.set("default_1m", std::move(d));
 
         memory.set("rss_start_bytes", static_cast<std::uint64_t>(rss_start));
@@ -1205,26 +1264,32 @@ int main(int argc, char** argv) {
         memory.set("rss_after_fanout_bytes", static_cast<std::uint64_t>(rss_after_ops));
         memory.set("rss_clients_delta_bytes", static_cast<std::uint64_t>(rss_clients - rss_server));
         memory.set("clients", clients);
-        memory.set("rss_per_client_bytes",
-                   static_cast<double>(rss_clients - rss_server) / static_cast<double>(clients));
+        memory.set(
+            "rss_per_client_bytes",
+            static_cast<double>(rss_clients - rss_server) / static_cast<double>(clients));
         memory.set("replicas_terrain_bytes", static_cast<std::uint64_t>(replica_bytes));
-        memory.set("server_terrain_bytes_before_ops", static_cast<std::uint64_t>(terrain_bytes_before));
-        memory.set("server_terrain_bytes_after_ops", static_cast<std::uint64_t>(terrain_bytes_after));
-        memory.set("server_join_snapshot_frames_bytes", static_cast<std::uint64_t>(snapshot_cache_bytes));
-        memory.set("server_queued_bytes_peak_join", static_cast<std::uint64_t>(queued_peak_connect));
+        memory.set(
+            "server_terrain_bytes_before_ops", static_cast<std::uint64_t>(terrain_bytes_before));
+        memory.set(
+            "server_terrain_bytes_after_ops", static_cast<std::uint64_t>(terrain_bytes_after));
+        memory.set(
+            "server_join_snapshot_frames_bytes", static_cast<std::uint64_t>(snapshot_cache_bytes));
+        memory.set(
+            "server_queued_bytes_peak_join", static_cast<std::uint64_t>(queued_peak_connect));
         memory.set("server_queued_bytes_peak_fanout", static_cast<std::uint64_t>(fan.queued_peak));
-        memory.set("note",
-                   "server and clients share one process: rss_server_only is map + server before any "
-                   "client; rss_clients_delta is the 64 replicas, their connections and the server's "
-                   "sessions and snapshot cache together; replicas_terrain_bytes is Terrain::memoryUsage "
-                   "summed over replicas");
-        std::printf("memory: RSS %.1f MiB server-only, %.1f MiB with %d clients (+%.2f MiB/client); "
-                    "terrain %.1f MiB -> %.1f MiB after ops; replicas %.1f MiB total; queued peak "
-                    "%.2f MiB (join) %.3f MiB (ops)\n",
-                    mib(rss_server), mib(rss_clients), clients,
-                    mib(rss_clients - rss_server) / clients, mib(terrain_bytes_before),
-                    mib(terrain_bytes_after), mib(replica_bytes), mib(queued_peak_connect),
-                    mib(fan.queued_peak));
+        memory.set(
+            "note",
+            "server and clients share one process: rss_server_only is map + server before any "
+            "client; rss_clients_delta is the 64 replicas, their connections and the server's "
+            "sessions and snapshot cache together; replicas_terrain_bytes is Terrain::memoryUsage "
+            "summed over replicas");
+        std::printf(
+            "memory: RSS %.1f MiB server-only, %.1f MiB with %d clients (+%.2f MiB/client); "
+            "terrain %.1f MiB -> %.1f MiB after ops; replicas %.1f MiB total; queued peak "
+            "%.2f MiB (join) %.3f MiB (ops)\n",
+            mib(rss_server), mib(rss_clients), clients, mib(rss_clients - rss_server) / clients,
+            mib(terrain_bytes_before), mib(terrain_bytes_after), mib(replica_bytes),
+            mib(queued_peak_connect), mib(fan.queued_peak));
         pool.clear();
         srv.stop();
     }
@@ -1240,14 +1305,16 @@ int main(int argc, char** argv) {
     double cold_ms = 0.0, warm_ms = 0.0, build_ms = 0.0;
     std::uint64_t snap_raw = 0, snap_wire = 0;
     if (!std::filesystem::exists(dem_json)) {
-        const std::string why = "skipped: " + dem_json.string() + " not found (../shared/data/dem absent)";
+        const std::string why =
+            "skipped: " + dem_json.string() + " not found (../shared/data/dem absent)";
         std::printf("join: %s\n", why.c_str());
         join.set("skipped", why);
     } else {
         auto dem = io::importDem(dem_json, {});
         if (!dem) {
-            std::fprintf(stderr, "net_bench: cannot import %s: %s\n", dem_json.c_str(),
-                         dem.error().message.c_str());
+            std::fprintf(
+                stderr, "net_bench: cannot import %s: %s\n", dem_json.c_str(),
+                dem.error().message.c_str());
             return 2;
         }
         const WorldSpec spec = dem->terrain.spec();
@@ -1269,15 +1336,18 @@ int main(int argc, char** argv) {
         });
         const std::uint64_t seq = srv.seq();
         const std::uint64_t hash = srv.worldHash();
-        const std::size_t patches = srv.call([&] { return srv.authority().terrain().patchCount(); });
-        const std::size_t terrain_bytes = srv.call([&] { return srv.authority().terrain().memoryUsage().total(); });
+        const std::size_t patches =
+            srv.call([&] { return srv.authority().terrain().patchCount(); });
+        const std::size_t terrain_bytes =
+            srv.call([&] { return srv.authority().terrain().memoryUsage().total(); });
         // snapshot build alone (the function the server calls on a cold join), median of 3
         std::vector<double> builds;
         wire::SnapshotFrames frames;
         for (int i = 0; i < 3; ++i)
             srv.call([&] {
                 const auto start = Clock::now();
-                frames = wire::buildSnapshotFrames(srv.authority().terrain(), seq, config.snapshot_chunk_bytes);
+                frames = wire::buildSnapshotFrames(
+                    srv.authority().terrain(), seq, config.snapshot_chunk_bytes);
                 builds.push_back(msSince(start));
                 return 0;
             });
@@ -1289,10 +1359,12 @@ int main(int argc, char** argv) {
         const std::uint16_t port = srv.port();
         auto joinOnce = [&](std::uint64_t player, Role role, double* ms) {
             BenchClient& c = pool.add(port, token(player, role));
-            const bool ok = waitFor([&] { return c.joined_ns.load(std::memory_order_acquire) != 0; }, 60.0);
+            const bool ok =
+                waitFor([&] { return c.joined_ns.load(std::memory_order_acquire) != 0; }, 60.0);
             bool verified = false;
             pool.threadOf(pool.size() - 1).call([&] {
-                verified = c.replica.ready() && c.replica.seq() == seq && c.replica.worldHash() == hash;
+                verified =
+                    c.replica.ready() && c.replica.seq() == seq && c.replica.worldHash() == hash;
                 return 0;
             });
             *ms = static_cast<double>(c.joined_ns.load() - c.started_ns) * 1e-6;
@@ -1316,14 +1388,19 @@ int main(int argc, char** argv) {
             return 0;
         });
         if (!joins_ok) {
-            std::fprintf(stderr, "net_bench: FAIL: an SRTM join did not reach seq %" PRIu64 " with the server hash\n", seq);
+            std::fprintf(
+                stderr,
+                "net_bench: FAIL: an SRTM join did not reach seq %" PRIu64
+                " with the server hash\n",
+                seq);
             failed = true;
         }
-        std::printf("srtm %dx%d, %.1f m, %zu craters (%zu refused, %.0f ms), %zu patches: snapshot "
-                    "%.1f MB raw -> %.1f MB wire, build %.0f ms; join cold %.0f ms, warm p50 %.0f ms\n",
-                    spec.width, spec.height, spec.spacingMetres(), history.size(), history_refused,
-                    history_ms, patches, static_cast<double>(snap_raw) * 1e-6,
-                    static_cast<double>(snap_wire) * 1e-6, build_ms, cold_ms, warm_ms);
+        std::printf(
+            "srtm %dx%d, %.1f m, %zu craters (%zu refused, %.0f ms), %zu patches: snapshot "
+            "%.1f MB raw -> %.1f MB wire, build %.0f ms; join cold %.0f ms, warm p50 %.0f ms\n",
+            spec.width, spec.height, spec.spacingMetres(), history.size(), history_refused,
+            history_ms, patches, static_cast<double>(snap_raw) * 1e-6,
+            static_cast<double>(snap_wire) * 1e-6, build_ms, cold_ms, warm_ms);
 
         join.set("map", "srtm_n44w072");
         join.set("size", std::to_string(spec.width) + "x" + std::to_string(spec.height));
@@ -1347,19 +1424,25 @@ int main(int argc, char** argv) {
         join.set("snapshots_built_cold", built_cold - built_before);
         join.set("snapshots_built_warm", built_warm - built_cold);
         join.set("joins_verified", joins_ok);
-        join.set("note", "join = Connection::start() to the replica holding the snapshot at the server's seq "
-                         "with its hash (loopback; client decode + validation + rehash included); "
-                         "cold builds the server's snapshot cache, warm reuses it");
+        join.set(
+            "note",
+            "join = Connection::start() to the replica holding the snapshot at the server's seq "
+            "with its hash (loopback; client decode + validation + rehash included); "
+            "cold builds the server's snapshot cache, warm reuses it");
 
         // SRTM bytes per op: the joined clients watch a short windowed run
         if (joins_ok) {
-            FanoutResult s = runDeform(srv, pool, randomCraters(spec, [&] {
-                                           CraterSeries c = series;
-                                           c.seed = 8;
-                                           c.count = srtm_ops;
-                                           return c;
-                                       }()),
-                                       static_cast<std::size_t>(window), 0.0, 120.0);
+            FanoutResult s = runDeform(
+                srv, pool,
+                randomCraters(
+                    spec,
+                    [&] {
+                        CraterSeries c = series;
+                        c.seed = 8;
+                        c.count = srtm_ops;
+                        return c;
+                    }()),
+                static_cast<std::size_t>(window), 0.0, 120.0);
             printLatency("srtm fan-out (windowed)", s);
             if (!s.completed || !s.check.all_match || s.check.hash_mismatches != 0) {
                 std::fprintf(stderr, "net_bench: FAIL srtm fan-out: %s\n", s.failure.c_str());
@@ -1382,15 +1465,18 @@ int main(int argc, char** argv) {
     root.set("ok", !failed);
 
     std::printf("\n%-34s %s\n", "what", "value");
-    std::printf("%-34s %.0f B median (min %.0f, max %.0f)\n", "wire bytes/op, 1 m map", default_bytes.p50,
-                default_bytes.min, default_bytes.max);
+    std::printf(
+        "%-34s %.0f B median (min %.0f, max %.0f)\n", "wire bytes/op, 1 m map", default_bytes.p50,
+        default_bytes.min, default_bytes.max);
     if (srtm_bytes.n)
-        std::printf("%-34s %.0f B median (min %.0f, max %.0f)\n", "wire bytes/op, srtm", srtm_bytes.p50,
-                    srtm_bytes.min, srtm_bytes.max);
+        std::printf(
+            "%-34s %.0f B median (min %.0f, max %.0f)\n", "wire bytes/op, srtm", srtm_bytes.p50,
+            srtm_bytes.min, srtm_bytes.max);
     if (snap_raw)
-        std::printf("%-34s %.1f MB raw, %.1f MB wire, build %.0f ms, join cold %.0f / warm %.0f ms\n",
-                    "srtm snapshot + join", static_cast<double>(snap_raw) * 1e-6,
-                    static_cast<double>(snap_wire) * 1e-6, build_ms, cold_ms, warm_ms);
+        std::printf(
+            "%-34s %.1f MB raw, %.1f MB wire, build %.0f ms, join cold %.0f / warm %.0f ms\n",
+            "srtm snapshot + join", static_cast<double>(snap_raw) * 1e-6,
+            static_cast<double>(snap_wire) * 1e-6, build_ms, cold_ms, warm_ms);
     std::printf("%-34s %.1f s\n", "total", msSince(bench_start) * 1e-3);
 
     std::error_code ec;
@@ -1398,7 +1484,7 @@ int main(int argc, char** argv) {
     if (out.has_parent_path())
         std::filesystem::create_directories(out.parent_path(), ec);
     std::ofstream file(out_path);
-    file << root.dump() << "\n";
+    file << root.dump(2) << "\n";
     if (!file) {
         std::fprintf(stderr, "net_bench: cannot write %s\n", out_path.c_str());
         return 2;

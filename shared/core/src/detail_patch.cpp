@@ -67,8 +67,9 @@ std::int32_t straightControl(std::int64_t a, std::int64_t b, int k) {
 
 // knot differences t_{i+4} - t_{i+1} (first derivative) and t'_{k+3} - t'_{k+1} (second), in
 // halves of the parameter range so that everything stays integral: {1,2,2,1} and {1,2,1}
-constexpr std::array<double, 4> kFirstSpan = {0.5, 1.0, 1.0, 0.5};
-constexpr std::array<double, 3> kSecondSpan = {0.5, 1.0, 0.5};
+// reciprocals, exact (the spans are powers of two): multiplications instead of divisions
+constexpr std::array<double, 4> kInvFirstSpan = {2.0, 1.0, 1.0, 2.0};
+constexpr std::array<double, 3> kInvSecondSpan = {2.0, 1.0, 2.0};
 
 } // namespace
 
@@ -239,8 +240,10 @@ void updateBounds(DetailPatch& p, const CellCorners& c) {
     const std::int64_t twist = absI64(std::int64_t{c.h00} - c.h10 - c.h01 + std::int64_t{c.h11});
     p.deviation_bound = static_cast<std::int32_t>(ceilDiv(worst36, 36) + ceilDiv(twist, 4));
 
-    // second-derivative control nets (quanta per unit parameter squared)
-    auto ctrl = [&](int i, int j) { return static_cast<double>(p.at(i, j)) / kControlScale; };
+    // second-derivative control nets, in sixths of a quantum per unit parameter squared (the
+    // nets are linear in the controls, so the division by kControlScale is done once, at the end;
+    // per control it was a fifth of a snapshot decode)
+    auto ctrl = [&](int i, int j) { return static_cast<double>(p.at(i, j)); };
     double m_uu = 0.0;
     double m_vv = 0.0;
     double m_uv = 0.0;
@@ -249,32 +252,32 @@ void updateBounds(DetailPatch& p, const CellCorners& c) {
         std::array<double, 4> qv{};
         for (int k = 0; k < 4; ++k) {
             qu[static_cast<size_t>(k)] =
-                3.0 * (ctrl(k + 1, row) - ctrl(k, row)) / kFirstSpan[static_cast<size_t>(k)];
+                3.0 * (ctrl(k + 1, row) - ctrl(k, row)) * kInvFirstSpan[static_cast<size_t>(k)];
             qv[static_cast<size_t>(k)] =
-                3.0 * (ctrl(row, k + 1) - ctrl(row, k)) / kFirstSpan[static_cast<size_t>(k)];
+                3.0 * (ctrl(row, k + 1) - ctrl(row, k)) * kInvFirstSpan[static_cast<size_t>(k)];
         }
         for (int k = 0; k < 3; ++k) {
             m_uu = std::max(
                 m_uu, std::abs(
-                          2.0 * (qu[static_cast<size_t>(k + 1)] - qu[static_cast<size_t>(k)]) /
-                          kSecondSpan[static_cast<size_t>(k)]));
+                          2.0 * (qu[static_cast<size_t>(k + 1)] - qu[static_cast<size_t>(k)]) *
+                          kInvSecondSpan[static_cast<size_t>(k)]));
             m_vv = std::max(
                 m_vv, std::abs(
-                          2.0 * (qv[static_cast<size_t>(k + 1)] - qv[static_cast<size_t>(k)]) /
-                          kSecondSpan[static_cast<size_t>(k)]));
+                          2.0 * (qv[static_cast<size_t>(k + 1)] - qv[static_cast<size_t>(k)]) *
+                          kInvSecondSpan[static_cast<size_t>(k)]));
         }
     }
     for (int j = 0; j < 4; ++j)
         for (int i = 0; i < 4; ++i) {
             const double d = ctrl(i + 1, j + 1) - ctrl(i, j + 1) - ctrl(i + 1, j) + ctrl(i, j);
             m_uv = std::max(
-                m_uv,
-                std::abs(
-                    9.0 * d /
-                    (kFirstSpan[static_cast<size_t>(i)] * kFirstSpan[static_cast<size_t>(j)])));
+                m_uv, std::abs(
+                          9.0 * d * kInvFirstSpan[static_cast<size_t>(i)] *
+                          kInvFirstSpan[static_cast<size_t>(j)]));
         }
     // Frobenius norm bounds the Hessian's spectral norm; legs w = 1/16 give R^2 = w^2 / 2
-    const double m = std::sqrt(m_uu * m_uu + 2.0 * m_uv * m_uv + m_vv * m_vv);
+    const double m =
+        std::sqrt(m_uu * m_uu + 2.0 * m_uv * m_uv + m_vv * m_vv) / kControlScale; // quanta
     const double w = 1.0 / bspline::kGridSteps;
     // 1e-6 relative margin covers the rounding of this double computation itself
     p.grid_error_bound = static_cast<float>((m * w * w / 4.0 + 0.5) * (1.0 + 1e-6));
