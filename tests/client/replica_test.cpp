@@ -1,0 +1,93 @@
+// The replica without a network: op order, hash checks, divergence and repair.
+
+#include <terrain/client/replica.h>
+#include <terrain/procedural_map.h>
+#include <terrain/snapshot.h>
+
+#include <gtest/gtest.h>
+
+namespace terrain::client {
+namespace {
+
+Terrain map() {
+    ProceduralMapOptions o;
+    o.width = 193;
+    o.height = 129;
+    return std::move(*makeProceduralMap(o));
+}
+
+DeformOp crater(double x, double y, const WorldSpec& spec) {
+    return *quantizeOp(OpRequest{OpKind::kCrater, x, y, 3, 1, 0.25}, spec);
+}
+
+DecodedSnapshot snapshotOf(const Terrain& t, std::uint64_t seq) {
+    return std::move(*decodeSnapshot(encodeSnapshot(t, seq)));
+}
+
+TEST(Replica, AppliesInOrderIgnoresStaleAndRefusesGaps) {
+    Terrain server = map();
+    Replica r;
+    r.loadSnapshot(snapshotOf(server, 5));
+    EXPECT_TRUE(r.peekDirty().all);
+    (void)r.takeDirty();
+    const DeformOp a = crater(40, 40, server.spec());
+    ASSERT_TRUE(server.apply(a).ok());
+    auto out = r.applyOp(6, a, server.worldHash());
+    ASSERT_TRUE(out.ok());
+    EXPECT_EQ(*out, Replica::OpOutcome::kApplied);
+    EXPECT_EQ(r.verifiedSeq(), 6u);
+    EXPECT_EQ(*r.applyOp(6, a, server.worldHash()), Replica::OpOutcome::kStale);
+    auto gap = r.applyOp(8, a, server.worldHash());
+    ASSERT_FALSE(gap.ok());
+    EXPECT_EQ(gap.error().code, ErrorCode::kOutOfRange);
+    const DirtySet dirty = r.takeDirty();
+    EXPECT_FALSE(dirty.all);
+    ASSERT_EQ(dirty.cells.size(), 1u);
+    EXPECT_FALSE(dirty.tiles.empty());
+    EXPECT_TRUE(r.takeDirty().tiles.empty());
+}
+
+TEST(Replica, DivergenceIsDetectedAndRepairedFromTileState) {
+    Terrain server = map();
+    Replica r;
+    r.loadSnapshot(snapshotOf(server, 0));
+    // corrupt a tile the next op does not touch
+    ASSERT_TRUE(r.terrainForTesting().apply(crater(150, 100, server.spec())).ok());
+    const DeformOp a = crater(20, 20, server.spec());
+    ASSERT_TRUE(server.apply(a).ok());
+    EXPECT_EQ(*r.applyOp(1, a, server.worldHash()), Replica::OpOutcome::kDiverged);
+    EXPECT_TRUE(r.diverged());
+    EXPECT_EQ(r.verifiedSeq(), 0u);
+    const std::vector<std::int32_t> suspects = r.suspectTiles();
+    ASSERT_FALSE(suspects.empty());
+    // first round: the op's tiles (which were fine) and every server tile hash
+    std::vector<std::uint64_t> hashes;
+    for (std::int32_t t = 0; t < server.spec().tileCount(); ++t)
+        hashes.push_back(server.computeTileHash(t));
+    auto records = [&](const std::vector<std::int32_t>& tiles) {
+        std::vector<TileRecord> out;
+        for (std::int32_t t : tiles) {
+            std::vector<std::uint8_t> bytes;
+            server.appendTileBytes(t, bytes);
+            out.push_back(std::move(*decodeTile(bytes, server.spec())));
+        }
+        return out;
+    };
+    auto left = r.applyRepair(1, server.worldHash(), records(suspects), hashes);
+    ASSERT_TRUE(left.ok());
+    ASSERT_FALSE(left->empty()); // the corrupted tile shows up in the hash comparison
+    EXPECT_TRUE(r.diverged());
+    left = r.applyRepair(1, server.worldHash(), records(*left), hashes);
+    ASSERT_TRUE(left.ok());
+    EXPECT_TRUE(left->empty());
+    EXPECT_FALSE(r.diverged());
+    EXPECT_EQ(r.worldHash(), server.worldHash());
+    EXPECT_EQ(r.terrain().computeWorldHash(), server.worldHash());
+    EXPECT_EQ(r.stats().repairs, 1u);
+    // tile state for another seq is refused
+    EXPECT_EQ(
+        r.applyRepair(7, server.worldHash(), {}, hashes).error().code, ErrorCode::kOutOfRange);
+}
+
+} // namespace
+} // namespace terrain::client
