@@ -132,6 +132,8 @@ Result<DecodedSnapshot> decodeSnapshot(std::span<const std::uint8_t> bytes) {
         return truncated("the tile records");
     std::vector<TileRecord> records;
     records.reserve(tile_count);
+    std::vector<std::span<const std::uint8_t>> record_bytes;
+    record_bytes.reserve(tile_count);
     for (std::uint32_t i = 0; i < tile_count; ++i) {
         std::uint32_t length = 0;
         if (!r.u32(length))
@@ -143,6 +145,7 @@ Result<DecodedSnapshot> decodeSnapshot(std::span<const std::uint8_t> bytes) {
             return rec.error();
         if (rec->tile != static_cast<std::int32_t>(i))
             return makeError(ErrorCode::kBadFormat, "tile records are out of order");
+        record_bytes.push_back(bytes.subspan(r.position(), length));
         r.skip(length);
         records.push_back(std::move(*rec));
     }
@@ -195,7 +198,14 @@ Result<DecodedSnapshot> decodeSnapshot(std::span<const std::uint8_t> bytes) {
         return terrain.error();
     for (TileRecord& rec : records)
         terrain->loadTile(rec.tile, rec.samples, std::move(rec.patches));
-    terrain->rehashAll();
+    // a record is the tile's canonical bytes (shared edges were checked equal above), so its hash
+    // is the record's: no need to serialize the tile again
+    for (std::size_t i = 0; i < records.size(); ++i) {
+        terrain->refreshBounds(records[i].tile);
+        terrain->tiles_[static_cast<std::size_t>(records[i].tile)].hash =
+            XXH3_64bits(record_bytes[i].data(), record_bytes[i].size());
+    }
+    terrain->rehashWorld();
     if (auto status = terrain->checkInvariants(); !status)
         return status.error();
     if (terrain->worldHash() != world_hash)

@@ -71,8 +71,7 @@ void SnapshotAssembler::reset() {
     received_bytes_ = 0;
     raw_filled_ = 0;
     frame_done_ = false;
-    raw_.clear();
-    raw_.shrink_to_fit();
+    raw_.reset();
     ZSTD_DCtx_reset(stream_->ctx, ZSTD_reset_session_only);
 }
 
@@ -91,6 +90,7 @@ Status SnapshotAssembler::begin(const pb::SnapshotBegin& begin) {
     raw_bytes_ = begin.raw_bytes();
     compressed_bytes_ = begin.compressed_bytes();
     chunk_count_ = begin.chunk_count();
+    raw_.reset(new std::uint8_t[static_cast<std::size_t>(raw_bytes_)]);
     return Ok{};
 }
 
@@ -109,12 +109,7 @@ Status SnapshotAssembler::add(const pb::SnapshotChunk& chunk) {
     while (in.pos < in.size) {
         if (frame_done_)
             return makeError(ErrorCode::kBadFormat, "snapshot data continues after its zstd frame");
-        // grow with the data actually decompressed, not with the announcement: a lying server
-        // costs what it sends, up to the announced (and limited) size
-        if (raw_filled_ == raw_.size() && raw_.size() < raw_bytes_)
-            raw_.resize(static_cast<std::size_t>(std::min<std::uint64_t>(
-                raw_bytes_, std::max<std::uint64_t>(2 * raw_.size(), std::uint64_t{1} << 20))));
-        ZSTD_outBuffer out{raw_.data(), raw_.size(), raw_filled_};
+        ZSTD_outBuffer out{raw_.get(), static_cast<std::size_t>(raw_bytes_), raw_filled_};
         const std::size_t in_before = in.pos;
         const std::size_t ret = ZSTD_decompressStream(stream_->ctx, &out, &in);
         if (ZSTD_isError(ret))
@@ -142,11 +137,12 @@ Result<DecodedSnapshot> SnapshotAssembler::finish() {
         return makeError(
             ErrorCode::kSizeMismatch, "snapshot zstd frame ends early or differs from its size");
     }
-    std::vector<std::uint8_t> raw = std::move(raw_);
+    std::unique_ptr<std::uint8_t[]> raw = std::move(raw_);
+    const std::size_t raw_size = static_cast<std::size_t>(raw_bytes_);
     const std::uint64_t seq = seq_;
     const std::uint64_t hash = world_hash_;
     reset();
-    Result<DecodedSnapshot> decoded = decodeSnapshot(raw);
+    Result<DecodedSnapshot> decoded = decodeSnapshot({raw.get(), raw_size});
     if (!decoded)
         return decoded.error();
     if (decoded->sequence != seq || decoded->terrain.worldHash() != hash)

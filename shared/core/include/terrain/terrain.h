@@ -129,7 +129,9 @@ class Terrain {
         std::span<const std::int32_t> samples65,
         std::vector<PatchEntry> patches);
     void rehashAll();
-    /// Recomputes the derived bounds of a tile's patches, then its hash (not the world hash).
+    /// Recomputes the derived bounds of a tile's patches.
+    void refreshBounds(std::int32_t tile);
+    /// refreshBounds(), then the tile's hash (not the world hash).
     void refreshTile(std::int32_t tile);
 
     std::int32_t tileOfCell(std::int32_t cx, std::int32_t cy) const {

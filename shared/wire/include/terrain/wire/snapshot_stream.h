@@ -70,7 +70,9 @@ class SnapshotAssembler {
     std::uint64_t received_bytes_ = 0;
     std::size_t raw_filled_ = 0;
     bool frame_done_ = false;
-    std::vector<std::uint8_t> raw_;
+    // note: allocated at the announced size but never initialised, so untouched pages cost no
+    // memory: a server that lies about the size costs what it actually sends
+    std::unique_ptr<std::uint8_t[]> raw_;
     struct Stream; // the zstd decompression context
     std::unique_ptr<Stream> stream_;
 };
