@@ -8,6 +8,8 @@
 // Writes one JSON file (--out) and prints a short table. Timings are measured, never asserted.
 // Exit status 1 when a replica ends different from the server or a phase hangs.
 
+#include "support/loopback.h"
+
 #include <terrain/client/connection.h>
 #include <terrain/client/replica.h>
 #include <terrain/io/dem_import.h>
@@ -154,50 +156,10 @@ double mib(std::size_t bytes) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// tokens (same scheme as tests/support/net_harness.h, without its gtest dependency)
+// tokens and threads: tests/support/loopback.h (shared with the loopback tests)
 
-const std::vector<std::uint8_t>& benchSecret() {
-    static const std::vector<std::uint8_t> secret = [] {
-        const std::string s = "loopback-bench-secret-0123456789";
-        return std::vector<std::uint8_t>(s.begin(), s.end());
-    }();
-    return secret;
-}
-std::string token(std::uint64_t player, Role role) {
-    const std::int64_t now = std::chrono::duration_cast<std::chrono::seconds>(
-                                 std::chrono::system_clock::now().time_since_epoch())
-                                 .count();
-    return server::mintToken({player, role, now + 3600}, benchSecret());
-}
-
-// ---------------------------------------------------------------------------------------------
-// threads
-
-/// An io_context on its own thread; call() runs a function there and waits for its result.
-class IoThread {
-  public:
-    IoThread() : work_(asio::make_work_guard(io_)), thread_([this] { io_.run(); }) {}
-    ~IoThread() { join(); }
-    void join() {
-        if (!thread_.joinable())
-            return;
-        work_.reset();
-        io_.stop();
-        thread_.join();
-    }
-    template <typename F> auto call(F f) -> decltype(f()) {
-        std::packaged_task<decltype(f())()> task(std::move(f));
-        auto result = task.get_future();
-        asio::post(io_, [&task] { task(); });
-        return result.get();
-    }
-    asio::io_context& io() { return io_; }
-
-  private:
-    asio::io_context io_{1};
-    asio::executor_work_guard<asio::io_context::executor_type> work_;
-    std::thread thread_;
-};
+using terrain::testing::IoThread;
+using terrain::testing::token;
 
 /// Authority + Server on their own thread. `prepare` runs on the authority before the server
 /// exists (ops applied there are the server's history, retained in its log).
@@ -208,7 +170,7 @@ class ServerThread {
         server::ServerConfig config,
         const std::function<void(server::Authority&)>& prepare = {},
         journal::Journal* journal = nullptr) {
-        config.token_secret = benchSecret();
+        config.token_secret = terrain::testing::testSecret();
         authority_ =
             std::make_unique<server::Authority>(std::move(terrain), 0, config.op_log_capacity);
         if (prepare)
@@ -887,6 +849,20 @@ Json bytesJson(const FanoutResult& r, Summary* out) {
     return j;
 }
 
+// waits until every client has joined (has its Welcome and state), tracking the server's queued
+// bytes meanwhile
+bool allJoined(ServerThread& srv, ClientPool& pool, std::size_t& queued_peak) {
+    return waitFor(
+        [&] {
+            queued_peak = std::max(queued_peak, srv.queuedBytes());
+            for (std::size_t i = 0; i < pool.size(); ++i)
+                if (pool[i].joined_ns.load(std::memory_order_acquire) == 0)
+                    return false;
+            return true;
+        },
+        120.0);
+}
+
 // waits for every client to hold `seq` with the server's hash
 bool allSynced(ServerThread& srv, ClientPool& pool, double timeout_seconds) {
     const std::uint64_t seq = srv.seq();
@@ -1026,15 +1002,7 @@ int main(int argc, char** argv) {
         pool.add(port, token(100, Role::kDeformer));
         for (int i = 1; i < clients; ++i)
             pool.addLight(port, token(static_cast<std::uint64_t>(100 + i), Role::kViewer));
-        const bool joined = waitFor(
-            [&] {
-                queued_peak_connect = std::max(queued_peak_connect, srv.queuedBytes());
-                for (std::size_t i = 0; i < pool.size(); ++i)
-                    if (pool[i].joined_ns.load(std::memory_order_acquire) == 0)
-                        return false;
-                return true;
-            },
-            120.0);
+        const bool joined = allJoined(srv, pool, queued_peak_connect);
         const double connect_ms = msSince(connect_start);
         if (!joined || !allSynced(srv, pool, 30.0)) {
             std::fprintf(stderr, "net_bench: FAIL: not every light viewer joined\n");
@@ -1165,16 +1133,7 @@ int main(int argc, char** argv) {
                 port,
                 token(
                     static_cast<std::uint64_t>(100 + i), i == 0 ? Role::kDeformer : Role::kViewer));
-        // poll the server's queue while the joins stream
-        const bool joined = waitFor(
-            [&] {
-                queued_peak_connect = std::max(queued_peak_connect, srv.queuedBytes());
-                for (std::size_t i = 0; i < pool.size(); ++i)
-                    if (pool[i].joined_ns.load(std::memory_order_acquire) == 0)
-                        return false;
-                return true;
-            },
-            120.0);
+        const bool joined = allJoined(srv, pool, queued_peak_connect);
         const double connect_ms = msSince(connect_start);
         if (!joined || !allSynced(srv, pool, 30.0)) {
             std::fprintf(stderr, "net_bench: FAIL: not every client joined the default map\n");

@@ -3,6 +3,7 @@
 // the restarted server must resume at (or after) the last acknowledged seq, and clients must
 // converge again.
 
+#include "support/journal_files.h"
 #include "support/net_harness.h"
 
 #include <terrain/journal/journal.h>
@@ -60,28 +61,6 @@ ServerProcess spawnServer(const fs::path& dir, const std::string& tag) {
             std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
     return p;
-}
-
-/// Every record of every segment, in order (stops at a torn tail).
-std::map<std::uint64_t, journal::JournalRecord> readJournal(const fs::path& data) {
-    std::vector<fs::path> segments;
-    for (const auto& entry : fs::directory_iterator(data))
-        if (entry.path().extension() == ".tjl")
-            segments.push_back(entry.path());
-    std::sort(segments.begin(), segments.end());
-    std::map<std::uint64_t, journal::JournalRecord> records;
-    for (const fs::path& path : segments) {
-        std::ifstream in(path, std::ios::binary);
-        std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
-        for (std::size_t at = journal::kSegmentHeaderSize;
-             at + journal::kRecordSize <= bytes.size(); at += journal::kRecordSize) {
-            auto r = journal::decodeRecord({bytes.data() + at, journal::kRecordSize});
-            if (!r)
-                break;
-            records[r->seq] = *r;
-        }
-    }
-    return records;
 }
 
 TEST(CrashRecovery, KillNineUnderLoadLosesNoAcknowledgedOp) {
@@ -143,16 +122,16 @@ TEST(CrashRecovery, KillNineUnderLoadLosesNoAcknowledgedOp) {
     {
         std::ostringstream name;
         name << "snapshot-" << std::setw(20) << std::setfill('0') << verified->base_seq << ".trsn";
-        std::ifstream in(dir / "data" / name.str(), std::ios::binary);
-        std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), {});
-        auto base = decodeSnapshot(bytes);
+        auto base = decodeSnapshot(readFileBytes(dir / "data" / name.str()));
         ASSERT_TRUE(base.ok()) << name.str();
         if (seen.count(verified->base_seq)) {
             EXPECT_EQ(base->terrain.worldHash(), seen[verified->base_seq]);
         }
     }
     // every later acknowledged op is in the journal, with the hash the clients verified
-    const auto records = readJournal(dir / "data");
+    std::map<std::uint64_t, journal::JournalRecord> records;
+    for (const auto& r : readJournalRecords(dir / "data").records)
+        records[r.seq] = r;
     for (std::uint64_t s = verified->base_seq + 1; s <= max_acked; ++s) {
         auto it = records.find(s);
         ASSERT_NE(it, records.end()) << "acknowledged seq " << s << " is not in the journal";

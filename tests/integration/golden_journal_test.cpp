@@ -7,6 +7,7 @@
 //   TERRAIN_REGENERATE_GOLDEN_JOURNAL=1 ./build/release/tests/integration_tests
 //       --gtest_filter=GoldenJournal.Regenerate
 
+#include "support/journal_files.h"
 #include "support/net_harness.h"
 
 #include <terrain/journal/journal.h>
@@ -30,29 +31,10 @@ using server::Role;
 
 const fs::path kGoldenDir = fs::path(TERRAIN_TEST_DATA_DIR) / "golden_journal";
 
-std::vector<std::uint8_t> readBytes(const fs::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), {}};
-}
-
 std::vector<journal::JournalRecord> readRecords(const fs::path& dir) {
-    std::vector<fs::path> segments;
-    for (const auto& entry : fs::directory_iterator(dir))
-        if (entry.path().extension() == ".tjl")
-            segments.push_back(entry.path());
-    std::sort(segments.begin(), segments.end());
-    std::vector<journal::JournalRecord> records;
-    for (const fs::path& path : segments) {
-        const auto bytes = readBytes(path);
-        for (std::size_t at = journal::kSegmentHeaderSize;
-             at + journal::kRecordSize <= bytes.size(); at += journal::kRecordSize) {
-            auto r = journal::decodeRecord({bytes.data() + at, journal::kRecordSize});
-            EXPECT_TRUE(r.ok()) << path;
-            if (r)
-                records.push_back(*r);
-        }
-    }
-    return records;
+    JournalFileRecords files = readJournalRecords(dir);
+    EXPECT_EQ(files.undecodable, 0u) << dir;
+    return std::move(files.records);
 }
 
 fs::path copyGolden() {
@@ -102,7 +84,7 @@ TEST(GoldenJournal, Regenerate) {
 TEST(GoldenJournal, ReplayedThroughAFreshServerEveryClientMatchesEverySeq) {
     ASSERT_TRUE(fs::exists(kGoldenDir / "snapshot-00000000000000000000.trsn"))
         << "tests/data/golden_journal is missing its genesis snapshot";
-    auto genesis = decodeSnapshot(readBytes(kGoldenDir / "snapshot-00000000000000000000.trsn"));
+    auto genesis = decodeSnapshot(readFileBytes(kGoldenDir / "snapshot-00000000000000000000.trsn"));
     ASSERT_TRUE(genesis.ok()) << genesis.error().message;
     const std::vector<journal::JournalRecord> records = readRecords(kGoldenDir);
     ASSERT_GT(records.size(), 200u);

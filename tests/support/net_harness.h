@@ -3,6 +3,8 @@
 // Loopback harness: a real Server on its own io thread, clients on the test thread's io_context,
 // raw sockets for misbehaving peers. Everything goes through real TCP on 127.0.0.1.
 
+#include "support/loopback.h"
+
 #include <terrain/client/connection.h>
 #include <terrain/client/replica.h>
 #include <terrain/procedural_map.h>
@@ -26,24 +28,6 @@
 
 namespace terrain::testing {
 
-inline const std::vector<std::uint8_t>& testSecret() {
-    static const std::vector<std::uint8_t> secret = [] {
-        const std::string s = "loopback-test-secret-0123456789";
-        return std::vector<std::uint8_t>(s.begin(), s.end());
-    }();
-    return secret;
-}
-
-inline std::int64_t unixNow() {
-    return std::chrono::duration_cast<std::chrono::seconds>(
-               std::chrono::system_clock::now().time_since_epoch())
-        .count();
-}
-
-inline std::string token(std::uint64_t player, server::Role role, std::int64_t ttl = 3600) {
-    return server::mintToken({player, role, unixNow() + ttl}, testSecret());
-}
-
 inline Terrain smallMap(int size = 257, std::uint64_t seed = 5) {
     ProceduralMapOptions o;
     o.seed = seed;
@@ -63,32 +47,25 @@ class TestServer {
         config.token_secret = testSecret();
         authority_ =
             std::make_unique<server::Authority>(std::move(terrain), seq, config.op_log_capacity);
-        server_ = std::make_unique<server::Server>(io_, config, *authority_, journal);
-        const Status s = server_->start();
+        const Status s = thread_.call([&] {
+            server_ = std::make_unique<server::Server>(thread_.io(), config, *authority_, journal);
+            return server_->start();
+        });
         EXPECT_TRUE(s.ok()) << (s ? "" : s.error().message);
-        work_.emplace(asio::make_work_guard(io_));
-        thread_ = std::thread([this] { io_.run(); });
     }
     ~TestServer() { stop(); }
 
-    template <typename F> auto call(F f) -> decltype(f()) {
-        std::packaged_task<decltype(f())()> task(std::move(f));
-        auto result = task.get_future();
-        asio::post(io_, [&task] { task(); });
-        return result.get();
-    }
+    template <typename F> auto call(F f) -> decltype(f()) { return thread_.call(std::move(f)); }
 
     void stop() {
-        if (!thread_.joinable())
+        if (!thread_.running())
             return;
         call([this] {
             server_->shutdown([] {});
             return 0;
         });
-        work_.reset();
         // give sessions their goodbye, then stop the loop
         std::this_thread::sleep_for(std::chrono::milliseconds(50));
-        io_.stop();
         thread_.join();
     }
 
@@ -106,11 +83,9 @@ class TestServer {
     server::Server& server() { return *server_; }          // server thread only (call())
 
   private:
-    asio::io_context io_{1};
+    IoThread thread_; // first: outlives the server whose handlers it holds
     std::unique_ptr<server::Authority> authority_;
     std::unique_ptr<server::Server> server_;
-    std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work_;
-    std::thread thread_;
 };
 
 /// A client: replica + connection on the test thread's io_context.

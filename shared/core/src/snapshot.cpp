@@ -193,7 +193,8 @@ Result<DecodedSnapshot> decodeSnapshot(std::span<const std::uint8_t> bytes) {
                 [static_cast<std::size_t>(y) * static_cast<std::size_t>(spec.width) +
                  static_cast<std::size_t>(x)] =
                     padded[static_cast<std::size_t>(y) * pw + static_cast<std::size_t>(x)];
-    auto terrain = Terrain::create(spec, samples);
+    // hashes come from the records below; hashing the tiles here as well would be thrown away
+    auto terrain = Terrain::createUnhashed(spec, samples);
     if (!terrain)
         return terrain.error();
     for (TileRecord& rec : records)

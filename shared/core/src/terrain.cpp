@@ -18,7 +18,8 @@ std::string cellName(std::int32_t cx, std::int32_t cy) {
 
 } // namespace
 
-Result<Terrain> Terrain::create(const WorldSpec& spec, std::span<const std::int32_t> samples) {
+Result<Terrain>
+Terrain::createUnhashed(const WorldSpec& spec, std::span<const std::int32_t> samples) {
     if (auto status = spec.validate(); !status)
         return status.error();
     const auto expected =
@@ -52,9 +53,16 @@ Result<Terrain> Terrain::create(const WorldSpec& spec, std::span<const std::int3
         }
     }
     t.tiles_.resize(static_cast<std::size_t>(spec.tileCount()));
+    return t;
+}
+
+Result<Terrain> Terrain::create(const WorldSpec& spec, std::span<const std::int32_t> samples) {
+    Result<Terrain> t = createUnhashed(spec, samples);
+    if (!t)
+        return t;
     for (std::int32_t tile = 0; tile < spec.tileCount(); ++tile)
-        t.rehashTile(tile);
-    t.rehashWorld();
+        t->rehashTile(tile);
+    t->rehashWorld();
     return t;
 }
 

@@ -11,13 +11,14 @@ namespace {
 
 constexpr std::uint32_t kKindCount = 4; // wire kind = OpKind - 1
 
-Result<DeformOp> opFromFields(
-    std::uint32_t kind,
-    std::uint64_t cx,
-    std::uint64_t cy,
-    std::uint32_t radius,
-    std::int32_t height,
-    std::int32_t strength_minus_unit) {
+// Op and OpApplied carry the op under the same field names; these read and write them for both
+template <typename Message> Result<DeformOp> opFromFields(const Message& m) {
+    const std::uint32_t kind = m.kind();
+    const std::uint64_t cx = m.center_x();
+    const std::uint64_t cy = m.center_y();
+    const std::uint32_t radius = m.radius();
+    const std::int32_t height = m.height();
+    const std::int32_t strength_minus_unit = m.strength_minus_unit();
     if (kind >= kKindCount)
         return makeError(
             ErrorCode::kUnsupported, "op kind " + std::to_string(kind) + " is not 0..3");
@@ -53,6 +54,15 @@ std::int32_t strengthToWire(std::int32_t strength) {
     return static_cast<std::int32_t>(std::int64_t{strength} - kUnitStrength);
 }
 
+template <typename Message> void putOpFields(const DeformOp& op, Message& out) {
+    out.set_kind(kindToWire(op.kind));
+    out.set_center_x(coordToWire(op.center_x));
+    out.set_center_y(coordToWire(op.center_y));
+    out.set_radius(static_cast<std::uint32_t>(op.radius));
+    out.set_height(op.height);
+    out.set_strength_minus_unit(strengthToWire(op.strength));
+}
+
 void putU32(std::vector<std::uint8_t>& out, std::uint32_t v) {
     for (int i = 0; i < 4; ++i)
         out.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
@@ -85,24 +95,14 @@ Result<pb::Envelope> decodeEnvelope(std::span<const std::uint8_t> body) {
 }
 
 void opToWire(const DeformOp& op, pb::Op& out) {
-    out.set_kind(kindToWire(op.kind));
-    out.set_center_x(coordToWire(op.center_x));
-    out.set_center_y(coordToWire(op.center_y));
-    out.set_radius(static_cast<std::uint32_t>(op.radius));
-    out.set_height(op.height);
-    out.set_strength_minus_unit(strengthToWire(op.strength));
+    putOpFields(op, out);
 }
 
 void opToWire(const DeformOp& op, std::uint64_t seq, std::uint64_t world_hash, pb::OpApplied& out) {
     if (seq % kExplicitSeqEvery == 0)
         out.set_seq(seq);
     out.set_world_hash(world_hash);
-    out.set_kind(kindToWire(op.kind));
-    out.set_center_x(coordToWire(op.center_x));
-    out.set_center_y(coordToWire(op.center_y));
-    out.set_radius(static_cast<std::uint32_t>(op.radius));
-    out.set_height(op.height);
-    out.set_strength_minus_unit(strengthToWire(op.strength));
+    putOpFields(op, out);
 }
 
 std::uint64_t appliedSeq(const pb::OpApplied& op, std::uint64_t current_seq) {
@@ -110,15 +110,11 @@ std::uint64_t appliedSeq(const pb::OpApplied& op, std::uint64_t current_seq) {
 }
 
 Result<DeformOp> opFromWire(const pb::Op& op) {
-    return opFromFields(
-        op.kind(), op.center_x(), op.center_y(), op.radius(), op.height(),
-        op.strength_minus_unit());
+    return opFromFields(op);
 }
 
 Result<DeformOp> opFromWire(const pb::OpApplied& op) {
-    return opFromFields(
-        op.kind(), op.center_x(), op.center_y(), op.radius(), op.height(),
-        op.strength_minus_unit());
+    return opFromFields(op);
 }
 
 void requestToWire(const OpRequest& request, pb::OpMetres& out) {

@@ -123,6 +123,9 @@ class Terrain {
     Terrain() = default;
 
     friend Result<DecodedSnapshot> decodeSnapshot(std::span<const std::uint8_t> bytes);
+    /// create() without the tile and world hashes (decodeSnapshot sets them from its records).
+    static Result<Terrain>
+    createUnhashed(const WorldSpec& spec, std::span<const std::int32_t> samples);
     /// Writes a tile's samples and patches (bounds recomputed) without rehashing anything.
     void loadTile(
         std::int32_t tile,
