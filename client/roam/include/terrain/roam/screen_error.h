@@ -1,0 +1,37 @@
+#pragma once
+
+// Measures what the tessellator promises, independently of its own bounds: the screen-space
+// distance between the drawn mesh and the true surface (surfaceHeight: patches included),
+// sampled densely over every drawn triangle of the tiles in view.
+// Pure: reads the tessellator's output and the terrain; no GL.
+
+#include <terrain/roam/camera.h>
+#include <terrain/roam/tessellator.h>
+#include <terrain/terrain.h>
+
+#include <cstdint>
+
+namespace terrain::roam {
+
+struct ScreenErrorOptions {
+    /// Samples per triangle edge: at least this many, and at least this many per cell of edge
+    /// length times samples_per_cell (so coarse triangles are sampled at every half cell).
+    int min_samples_per_edge = 6;
+    double samples_per_cell = 2.0;
+};
+
+struct ScreenErrorStats {
+    double max_pixels = 0.0;
+    double mean_pixels = 0.0;
+    std::int64_t samples = 0;   ///< sample points inside the viewport
+    std::int64_t triangles = 0; ///< drawn triangles examined
+    glm::dvec3 worst_point{0.0};
+};
+
+ScreenErrorStats measureScreenError(
+    const Tessellator& tessellator,
+    const Terrain& terrain,
+    const Camera& camera,
+    const ScreenErrorOptions& options = {});
+
+} // namespace terrain::roam

@@ -1,0 +1,168 @@
+#include <terrain/roam/tile_mesh.h>
+
+#include <algorithm>
+
+namespace terrain::roam {
+
+std::size_t TileMesh::hashKey(std::uint64_t key) {
+    // splitmix64 finaliser: keys are structured coordinates
+    key ^= key >> 30;
+    key *= 0xbf58476d1ce4e5b9ull;
+    key ^= key >> 27;
+    key *= 0x94d049bb133111ebull;
+    key ^= key >> 31;
+    return static_cast<std::size_t>(key);
+}
+
+void TileMesh::clear() {
+    indices_.clear();
+    keys_of_slots_.clear();
+    free_slots_.clear();
+    std::fill(table_keys_.begin(), table_keys_.end(), kNoKey);
+    table_used_ = 0;
+    live_ = 0;
+    dirty_first_ = 0;
+    dirty_last_ = 0;
+    ++counters_.rebuilds;
+}
+
+std::uint32_t TileMesh::find(std::uint64_t key) const {
+    if (table_keys_.empty())
+        return kEmpty;
+    const std::size_t mask = table_keys_.size() - 1;
+    for (std::size_t i = hashKey(key) & mask;; i = (i + 1) & mask) {
+        if (table_keys_[i] == key)
+            return table_slots_[i];
+        if (table_keys_[i] == kNoKey)
+            return kEmpty;
+    }
+}
+
+void TileMesh::growTable() {
+    const std::size_t size = std::max<std::size_t>(64, table_keys_.size() * 2);
+    std::vector<std::uint64_t> keys(size, kNoKey);
+    std::vector<std::uint32_t> slots(size, 0);
+    const std::size_t mask = size - 1;
+    for (std::size_t j = 0; j < table_keys_.size(); ++j) {
+        if (table_keys_[j] == kNoKey)
+            continue;
+        std::size_t i = hashKey(table_keys_[j]) & mask;
+        while (keys[i] != kNoKey)
+            i = (i + 1) & mask;
+        keys[i] = table_keys_[j];
+        slots[i] = table_slots_[j];
+    }
+    table_keys_.swap(keys);
+    table_slots_.swap(slots);
+}
+
+void TileMesh::insertKey(std::uint64_t key, std::uint32_t slot) {
+    if ((table_used_ + 1) * 2 > table_keys_.size())
+        growTable();
+    const std::size_t mask = table_keys_.size() - 1;
+    std::size_t i = hashKey(key) & mask;
+    while (table_keys_[i] != kNoKey)
+        i = (i + 1) & mask;
+    table_keys_[i] = key;
+    table_slots_[i] = slot;
+    ++table_used_;
+}
+
+void TileMesh::eraseKey(std::uint64_t key) {
+    const std::size_t mask = table_keys_.size() - 1;
+    std::size_t i = hashKey(key) & mask;
+    while (table_keys_[i] != key)
+        i = (i + 1) & mask;
+    // backward-shift: pull later entries of the probe run into the hole
+    std::size_t hole = i;
+    for (std::size_t j = (i + 1) & mask; table_keys_[j] != kNoKey; j = (j + 1) & mask) {
+        const std::size_t home = hashKey(table_keys_[j]) & mask;
+        const bool movable = (j > hole) ? (home <= hole || home > j) : (home <= hole && home > j);
+        if (movable) {
+            table_keys_[hole] = table_keys_[j];
+            table_slots_[hole] = table_slots_[j];
+            hole = j;
+        }
+    }
+    table_keys_[hole] = kNoKey;
+    --table_used_;
+}
+
+void TileMesh::write(std::uint32_t slot, const Indices& indices) {
+    std::copy(
+        indices.begin(), indices.end(), indices_.begin() + 3 * static_cast<std::ptrdiff_t>(slot));
+    counters_.index_bytes_written += kIndexBytesPerTriangle;
+    if (dirty_first_ > dirty_last_) {
+        dirty_first_ = slot;
+        dirty_last_ = slot;
+    } else {
+        dirty_first_ = std::min(dirty_first_, slot);
+        dirty_last_ = std::max(dirty_last_, slot);
+    }
+}
+
+void TileMesh::add(std::uint64_t key, const Indices& indices) {
+    std::uint32_t slot = 0;
+    if (!free_slots_.empty()) {
+        slot = free_slots_.back();
+        free_slots_.pop_back();
+    } else {
+        slot = slotCount();
+        keys_of_slots_.push_back(kNoKey);
+        indices_.resize(indices_.size() + 3);
+    }
+    keys_of_slots_[slot] = key;
+    insertKey(key, slot);
+    write(slot, indices);
+    ++live_;
+}
+
+bool TileMesh::remove(std::uint64_t key) {
+    const std::uint32_t slot = find(key);
+    if (slot == kEmpty)
+        return false;
+    eraseKey(key);
+    keys_of_slots_[slot] = kNoKey;
+    free_slots_.push_back(slot);
+    write(slot, {0, 0, 0});
+    --live_;
+    return true;
+}
+
+void TileMesh::compactIfSparse() {
+    if (free_slots_.size() * 4 <= keys_of_slots_.size() || keys_of_slots_.size() < 64)
+        return;
+    std::uint32_t out = 0;
+    for (std::uint32_t slot = 0; slot < slotCount(); ++slot) {
+        const std::uint64_t key = keys_of_slots_[slot];
+        if (key == kNoKey)
+            continue;
+        if (out != slot) {
+            keys_of_slots_[out] = key;
+            std::copy_n(
+                indices_.begin() + 3 * static_cast<std::ptrdiff_t>(slot), 3,
+                indices_.begin() + 3 * static_cast<std::ptrdiff_t>(out));
+            // the key's table entry moves with it
+            const std::size_t mask = table_keys_.size() - 1;
+            std::size_t i = hashKey(key) & mask;
+            while (table_keys_[i] != key)
+                i = (i + 1) & mask;
+            table_slots_[i] = out;
+        }
+        ++out;
+    }
+    keys_of_slots_.resize(out);
+    indices_.resize(3 * static_cast<std::size_t>(out));
+    free_slots_.clear();
+    counters_.index_bytes_written += static_cast<std::uint64_t>(out) * kIndexBytesPerTriangle;
+    dirty_first_ = 0;
+    dirty_last_ = out == 0 ? 0 : out - 1;
+    ++counters_.rebuilds;
+}
+
+void TileMesh::takeChanges() {
+    dirty_first_ = 1;
+    dirty_last_ = 0;
+}
+
+} // namespace terrain::roam
