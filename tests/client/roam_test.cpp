@@ -6,14 +6,51 @@
 #include "support/mesh_checks.h"
 #include "support/terrain_builders.h"
 
+#include <terrain/io/dem_import.h>
 #include <terrain/roam/screen_error.h>
 #include <terrain/roam/tessellator.h>
 #include <terrain/surface_query.h>
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <functional>
+#include <new>
 #include <random>
+#include <set>
+
+// Allocation counting for the steady-state test: every operator new in this binary goes
+// through here; only allocations made while counting is on are counted.
+namespace {
+std::atomic<bool> g_counting{false};
+std::atomic<std::int64_t> g_allocations{0};
+} // namespace
+
+void* operator new(std::size_t size) {
+    if (g_counting.load(std::memory_order_relaxed))
+        g_allocations.fetch_add(1, std::memory_order_relaxed);
+    if (void* p = std::malloc(size == 0 ? 1 : size))
+        return p;
+    throw std::bad_alloc();
+}
+void* operator new[](std::size_t size) {
+    return operator new(size);
+}
+void operator delete(void* p) noexcept {
+    std::free(p);
+}
+void operator delete[](void* p) noexcept {
+    std::free(p);
+}
+void operator delete(void* p, std::size_t) noexcept {
+    std::free(p);
+}
+void operator delete[](void* p, std::size_t) noexcept {
+    std::free(p);
+}
 
 namespace terrain::testing {
 namespace {
@@ -86,6 +123,34 @@ TEST(RoamLattice, ParentsAndChildrenAgree) {
         }
 }
 
+TEST(RoamLattice, FullRefinementOfACellReachesOnlyItsNeighbours) {
+    // the closure (every forced parent) of splitting every sub-cell diamond of one cell: the
+    // cells its triangles lie in must be within kDetailHaloCells, or a split would find no block
+    for (std::int32_t cy = 4; cy < 6; ++cy)
+        for (std::int32_t cx = 4; cx < 6; ++cx) {
+            std::set<std::pair<std::int32_t, std::int32_t>> split;
+            std::function<void(roam::LatticePoint)> force = [&](roam::LatticePoint p) {
+                if (roam::isGridVertex(p) || !split.insert({p.x, p.y}).second)
+                    return; // grid vertices need no block
+                for (const roam::LatticePoint a : roam::apexes(roam::diamondAt(p)))
+                    force(a);
+            };
+            for (std::int32_t l = 0; l <= 16; ++l)
+                for (std::int32_t k = 0; k <= 16; ++k)
+                    force({cx * 16 + k, cy * 16 + l});
+            std::int32_t reach = 0;
+            for (const auto& [x, y] : split) {
+                const roam::Diamond d = roam::diamondAt({x, y});
+                for (const roam::LatticePoint a : roam::apexes(d)) {
+                    const roam::LatticePoint c3 = roam::centroidTimes3(roam::triangleOf(d, a));
+                    reach = std::max({reach, std::abs(c3.x / 48 - cx), std::abs(c3.y / 48 - cy)});
+                }
+            }
+            EXPECT_GT(split.size(), 255u);
+            EXPECT_EQ(reach, roam::kDetailHaloCells) << "cell " << cx << "," << cy;
+        }
+}
+
 TEST(RoamMesh, ConformsAndMeetsTauOnHillsWithCraters) {
     const Terrain t = cratered(7, 40);
     ASSERT_GT(t.patchCount(), 0u);
@@ -103,6 +168,376 @@ TEST(RoamMesh, ConformsAndMeetsTauOnHillsWithCraters) {
         EXPECT_LE(err.max_pixels, o.tau_pixels) << "camera " << i;
         EXPECT_EQ(tess.missingBlockRefusals(), 0);
     }
+}
+
+using LeafSet = std::set<std::array<std::int32_t, 6>>;
+
+LeafSet leaves(const Tessellator& tess) {
+    LeafSet out;
+    tess.forEachLeaf([&](const roam::Triangle& t, std::int32_t, bool) {
+        out.insert({t.apex.x, t.apex.y, t.left.x, t.left.y, t.right.x, t.right.y});
+    });
+    return out;
+}
+
+/// Above the middle of the map, looking straight down from `above` metres over its highest
+/// point: with the map in view, no culling hides a difference between two meshes.
+Camera overview(const Terrain& t, double above = 300.0) {
+    const double cx = t.spec().extentX() / 2;
+    const double cy = t.spec().extentY() / 2;
+    double top = -1e9;
+    for (double y = 0; y <= t.spec().extentY(); y += 1.0)
+        for (double x = 0; x <= t.spec().extentX(); x += 1.0)
+            top = std::max(top, surfaceHeight(t, x, y));
+    Camera c = lookAt(glm::dvec3(cx, cy, top + above), glm::dvec3(cx, cy, 0.0));
+    c.up = glm::dvec3(0.0, 1.0, 0.0);
+    return c;
+}
+
+TEST(RoamMesh, SplitMergeConvergesToTheSplitOnlyMesh) {
+    const Terrain t = cratered(11, 30);
+    TessellatorOptions sm;
+    TessellatorOptions so;
+    so.mode = TessellationMode::kSplitOnly;
+    Tessellator a(t, sm);
+    Tessellator b(t, so);
+    // start high, then come down step by step so split/merge works incrementally
+    const Camera end = overview(t, 30.0);
+    for (int i = 20; i >= 0; --i) {
+        Camera c = end;
+        c.eye.z += 15.0 * i;
+        a.update(c);
+    }
+    const Camera c = end;
+    b.update(c);
+    EXPECT_FALSE(a.update(c).rebuilt);
+    EXPECT_FALSE(a.update(c).rebuilt); // merges out of view that the last step left due
+    EXPECT_EQ(leaves(a), leaves(b));
+    EXPECT_EQ(a.triangleCount(), b.triangleCount());
+}
+
+TEST(RoamMesh, SplitMergeFlightStaysWithinTenPercentOfSplitOnlyAndWithinTau) {
+    const Terrain t = cratered(5, 60);
+    TessellatorOptions sm;
+    sm.tau_pixels = 1.0;
+    TessellatorOptions so = sm;
+    so.mode = TessellationMode::kSplitOnly;
+    Tessellator a(t, sm);
+    Tessellator b(t, so);
+    std::int64_t rebuilds = 0;
+    double worst_ratio = 0.0;
+    for (int f = 0; f < 240; ++f) {
+        // a low loop over the map, turning all the time
+        const double s = f / 240.0 * 2.0 * M_PI;
+        const double x = t.spec().extentX() * (0.5 + 0.3 * std::cos(s));
+        const double y = t.spec().extentY() * (0.5 + 0.3 * std::sin(s));
+        Camera c = lookAt(
+            glm::dvec3(x, y, surfaceHeight(t, x, y) + 6.0),
+            glm::dvec3(
+                x - 20.0 * std::sin(s + 0.4), y + 20.0 * std::cos(s + 0.4),
+                surfaceHeight(t, x, y)));
+        const auto sa = a.update(c);
+        const auto sb = b.update(c);
+        rebuilds += sa.rebuilt ? 1 : 0;
+        worst_ratio = std::max(
+            worst_ratio,
+            std::abs(static_cast<double>(sa.visible_triangles - sb.visible_triangles)) /
+                static_cast<double>(sb.visible_triangles));
+        if (f % 60 == 30) {
+            expectConforming(a, t.spec());
+            expectIndexListsMatchMesh(a);
+            EXPECT_LE(roam::measureScreenError(a, t, c).max_pixels, sm.tau_pixels) << "frame " << f;
+            EXPECT_LE(roam::measureScreenError(b, t, c).max_pixels, so.tau_pixels) << "frame " << f;
+        }
+    }
+    EXPECT_EQ(rebuilds, 1) << "only the first frame rebuilds";
+    EXPECT_LE(worst_ratio, 0.10);
+}
+
+TEST(RoamMesh, EveryDemConformsAndMeetsTau) {
+    const std::filesystem::path dir(TERRAIN_DEM_DIR);
+    if (!std::filesystem::exists(dir))
+        GTEST_SKIP() << "no DEMs at " << dir << " (../shared/data/dem beside the repo)";
+    int seen = 0;
+    for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+        if (!entry.is_directory())
+            continue;
+        const auto json = entry.path() / (entry.path().filename().string() + ".json");
+        if (!std::filesystem::exists(json))
+            continue;
+        auto dem = io::importDem(json, {});
+        if (!dem.ok()) {
+            // gcanyon_hoppe_1200 states no spacing; its notes suggest 30-45 m
+            io::DemImportOptions with_spacing;
+            with_spacing.spacing_metres = 40.0;
+            dem = io::importDem(json, with_spacing);
+        }
+        ASSERT_TRUE(dem.ok()) << json << ": " << dem.error().message;
+        Terrain& t = dem->terrain;
+        // a few craters, so patches and their halos meet real relief
+        CraterSeries s;
+        s.count = 8;
+        s.min_radius = 0.8 * t.spec().spacingMetres();
+        s.max_radius = 3.0 * t.spec().spacingMetres();
+        applyAll(t, randomCraters(t.spec(), s));
+        ++seen;
+        Tessellator tess(t, {});
+        std::mt19937_64 rng(static_cast<std::uint64_t>(seen));
+        for (int i = 0; i < 2; ++i) {
+            Camera c = randomCamera(t, rng);
+            c.eye.z += 100.0 + 10.0 * t.spec().spacingMetres();
+            tess.update(c);
+            SCOPED_TRACE(entry.path().filename().string() + " camera " + std::to_string(i));
+            expectConforming(tess, t.spec());
+            expectIndexListsMatchMesh(tess);
+            EXPECT_LE(roam::measureScreenError(tess, t, c, {3, 1.0}).max_pixels, 1.0);
+            EXPECT_EQ(tess.missingBlockRefusals(), 0);
+        }
+    }
+    EXPECT_GE(seen, 1);
+}
+
+TEST(RoamMesh, FullRefinementAroundPatchesNeverLacksABlock) {
+    // tau near zero with the eye just above crater rims: every patch cell is refined to its
+    // finest level, and the forced splits around it must find blocks in the halo
+    Terrain t = cratered(3, 25);
+    for (const auto mode : {TessellationMode::kSplitMerge, TessellationMode::kSplitOnly}) {
+        TessellatorOptions o;
+        o.tau_pixels = 0.02;
+        o.mode = mode;
+        Tessellator tess(t, o);
+        std::mt19937_64 rng(9);
+        int deepest = 0;
+        for (int i = 0; i < 4; ++i) {
+            Camera c = randomCamera(t, rng);
+            c.eye.z = surfaceHeight(t, c.eye.x, c.eye.y) + 1.0;
+            tess.update(c);
+            tess.forEachLeaf([&](const roam::Triangle& tr, std::int32_t, bool) {
+                deepest = std::max(deepest, tr.level);
+            });
+            expectConforming(tess, t.spec());
+        }
+        EXPECT_EQ(deepest, roam::kFinestTriangleLevel);
+        EXPECT_EQ(tess.missingBlockRefusals(), 0);
+    }
+}
+
+TEST(RoamMesh, AFinestSplitForcesItsAncestorsAcrossTiles) {
+    const Terrain t = cratered(13, 40);
+    TessellatorOptions o;
+    o.tau_pixels = 1e9; // nothing is worth a split: two triangles per tile
+    Tessellator tess(t, o);
+    const Camera c = overview(t);
+    tess.update(c);
+    ASSERT_EQ(tess.triangleCount(), 2 * tess.tileCount());
+    // the finest diamond in a patch cell next to the corner shared by four tiles
+    const PatchEntry* near_corner = nullptr;
+    std::int32_t best = 1 << 30;
+    for (const PatchEntry& e : t.tilePatches(0)) {
+        const std::int32_t d = (63 - e.cell % 64) + (63 - e.cell / 64);
+        if (d < best) {
+            best = d;
+            near_corner = &e;
+        }
+    }
+    ASSERT_NE(near_corner, nullptr);
+    const roam::LatticePoint p{
+        (near_corner->cell % 64) * 16 + 16, (near_corner->cell / 64) * 16 + 15}; // level 19
+    ASSERT_EQ(roam::diamondAt(p).level, roam::kMaxDiamondLevel);
+    roam::FrameStats stats;
+    ASSERT_TRUE(tess.splitAt(p, stats));
+    EXPECT_GE(stats.forced_splits, roam::kMaxDiamondLevel);
+    int touched = 0;
+    for (std::int32_t tile = 0; tile < tess.tileCount(); ++tile)
+        touched += tess.tileMesh(tile).counters().forced_splits > 0 ? 1 : 0;
+    EXPECT_GE(touched, 2) << "the forced chain crosses tile borders";
+    expectConforming(tess, t.spec());
+    expectIndexListsMatchMesh(tess);
+    // and the metric merges it all away again
+    for (int i = 0; i < 3; ++i)
+        tess.update(c);
+    EXPECT_EQ(tess.triangleCount(), 2 * tess.tileCount());
+    expectConforming(tess, t.spec());
+    expectIndexListsMatchMesh(tess);
+}
+
+TEST(RoamMesh, ACraterChangesOnlyItsTile) {
+    Terrain t = makeHills(21, 257, 257); // 4 x 4 tiles
+    const double tile_m = 64.0 * t.spec().spacingMetres();
+    const double cx = 1.5 * tile_m;
+    const double cy = 1.5 * tile_m;
+    const Camera c = lookAt(
+        glm::dvec3(cx - 30.0, cy - 30.0, surfaceHeight(t, cx, cy) + 25.0),
+        glm::dvec3(cx, cy, surfaceHeight(t, cx, cy)));
+    Tessellator tess(t, {});
+    for (int i = 0; i < 3; ++i)
+        tess.update(c);
+    for (std::int32_t tile = 0; tile < tess.tileCount(); ++tile)
+        tess.tileMesh(tile).takeChanges();
+    const std::int32_t before = tess.tileVertexVersion(5);
+
+    OpRequest crater;
+    crater.x = cx;
+    crater.y = cy;
+    crater.radius = 4.0;
+    crater.height = 1.5;
+    auto op = quantizeOp(crater, t.spec());
+    ASSERT_TRUE(op.ok());
+    auto effect = t.apply(*op);
+    ASSERT_TRUE(effect.ok());
+    ASSERT_GT(effect->patches_created, 0);
+    ASSERT_EQ(effect->dirty_tiles, std::vector<std::int32_t>{5});
+    tess.terrainChanged(std::span<const CellRect>(&effect->cells, 1), false);
+    const auto stats = tess.update(c);
+    EXPECT_FALSE(stats.rebuilt);
+    EXPECT_GT(stats.splits, 0);
+    for (std::int32_t tile = 0; tile < tess.tileCount(); ++tile)
+        EXPECT_EQ(tess.tileMesh(tile).dirty(), tile == 5) << "tile " << tile;
+    EXPECT_NE(tess.tileVertexVersion(5), before);
+    expectConforming(tess, t.spec());
+    expectIndexListsMatchMesh(tess);
+    EXPECT_LE(roam::measureScreenError(tess, t, c).max_pixels, 1.0);
+}
+
+TEST(RoamMesh, IncrementalBoundsAfterOpsEqualAFreshBuild) {
+    Terrain t = makeHills(4);
+    Tessellator tess(t, {});
+    const Camera c = overview(t);
+    tess.update(c);
+    CraterSeries s;
+    s.seed = 4;
+    s.count = 30;
+    for (const OpRequest& r : randomCraters(t.spec(), s)) {
+        auto op = quantizeOp(r, t.spec());
+        ASSERT_TRUE(op.ok());
+        auto effect = t.apply(*op);
+        ASSERT_TRUE(effect.ok());
+        tess.terrainChanged(std::span<const CellRect>(&effect->cells, 1), false);
+        tess.update(c);
+    }
+    // a flatten that removes patches again, so blocks go away too
+    OpRequest flat;
+    flat.kind = OpKind::kFlatten;
+    flat.x = t.spec().extentX() / 2;
+    flat.y = t.spec().extentY() / 2;
+    flat.radius = 30.0;
+    flat.height = 5.0;
+    auto op = quantizeOp(flat, t.spec());
+    ASSERT_TRUE(op.ok());
+    auto effect = t.apply(*op);
+    ASSERT_TRUE(effect.ok());
+    tess.terrainChanged(std::span<const CellRect>(&effect->cells, 1), false);
+    tess.update(c);
+
+    Tessellator fresh(t, {});
+    fresh.update(c);
+    EXPECT_EQ(tess.blockCount(), fresh.blockCount());
+    std::int64_t compared = 0;
+    for (std::int32_t y = 0; y <= (t.spec().paddedHeight() - 1) * 16; y += 2)
+        for (std::int32_t x = 0; x <= (t.spec().paddedWidth() - 1) * 16; x += 2) {
+            const double a = tess.deltaAt({x, y});
+            const double b = fresh.deltaAt({x, y});
+            ASSERT_EQ(a, b) << "diamond at " << x << "," << y;
+            compared += a >= 0.0 ? 1 : 0;
+        }
+    EXPECT_GT(compared, 10000);
+    EXPECT_EQ(leaves(tess), leaves(fresh));
+    expectIndexListsMatchMesh(tess);
+}
+
+TEST(RoamMesh, ASteadyFrameAllocatesNothing) {
+    const Terrain t = cratered(8, 30);
+    Tessellator tess(t, {});
+    auto orbit = [&](int f) {
+        const double s = f / 120.0 * 2.0 * M_PI;
+        const double x = t.spec().extentX() * (0.5 + 0.25 * std::cos(s));
+        const double y = t.spec().extentY() * (0.5 + 0.25 * std::sin(s));
+        return lookAt(
+            glm::dvec3(x, y, 12.0 + surfaceHeight(t, x, y)),
+            glm::dvec3(t.spec().extentX() / 2, t.spec().extentY() / 2, 0.0));
+    };
+    for (int f = 0; f < 240; ++f) // two laps reach every capacity the loop needs
+        tess.update(orbit(f));
+    std::int64_t work = 0;
+    g_allocations = 0;
+    g_counting = true;
+    for (int f = 240; f < 360; ++f) {
+        const auto stats = tess.update(orbit(f));
+        work += stats.splits + stats.merges;
+    }
+    g_counting = false;
+    EXPECT_GT(work, 100) << "the orbit must make the tessellator work";
+    EXPECT_EQ(g_allocations.load(), 0);
+}
+
+TEST(RoamMesh, TheTriangleCapHoldsWithoutCracks) {
+    const Terrain t = cratered(2, 40);
+    for (const auto mode : {TessellationMode::kSplitMerge, TessellationMode::kSplitOnly}) {
+        TessellatorOptions o;
+        o.mode = mode;
+        o.tau_pixels = 0.25;
+        o.max_triangles = 3000;
+        Tessellator tess(t, o);
+        std::mt19937_64 rng(5);
+        std::int64_t refused = 0;
+        for (int i = 0; i < 8; ++i) {
+            const Camera c = randomCamera(t, rng);
+            for (int k = 0; k < 3; ++k) {
+                const auto stats = tess.update(c);
+                refused += stats.refused_by_cap;
+                EXPECT_LE(stats.triangles, o.max_triangles);
+            }
+            expectConforming(tess, t.spec());
+            expectIndexListsMatchMesh(tess);
+            // the cap is spent, not abandoned early
+            EXPECT_GE(tess.triangleCount(), o.max_triangles * 9 / 10);
+        }
+        EXPECT_GT(refused, 0);
+    }
+}
+
+TEST(RoamMesh, BudgetSpreadsWorkOverFramesAndConverges) {
+    const Terrain t = cratered(6, 30);
+    TessellatorOptions o;
+    o.work_budget = 200;
+    Tessellator tess(t, o);
+    TessellatorOptions so;
+    so.mode = TessellationMode::kSplitOnly;
+    Tessellator reference(t, so);
+    Camera c = overview(t, 300.0);
+    tess.update(c); // first frame rebuilds top-down, unbudgeted
+    c = overview(t, 25.0);
+    reference.update(c);
+    int frames = 0;
+    bool exhausted = false;
+    while (frames < 200) {
+        const auto stats = tess.update(c);
+        ++frames;
+        exhausted = exhausted || stats.budget_exhausted;
+        EXPECT_LE(stats.splits + stats.merges, o.work_budget + 32); // forced chains finish
+        expectConforming(tess, t.spec());
+        if (!stats.budget_exhausted && stats.splits + stats.merges == 0)
+            break;
+    }
+    EXPECT_TRUE(exhausted);
+    EXPECT_GT(frames, 2);
+    EXPECT_EQ(leaves(tess), leaves(reference));
+}
+
+TEST(RoamMesh, ATeleportRebuildsTopDown) {
+    const Terrain t = makeHills(12, 400, 400);
+    TessellatorOptions o;
+    o.teleport_metres = 100.0;
+    Tessellator tess(t, o);
+    Camera c = lookAt(glm::dvec3(20, 20, 30), glm::dvec3(60, 60, 0));
+    tess.update(c);
+    EXPECT_FALSE(tess.update(c).rebuilt);
+    c = lookAt(glm::dvec3(380, 380, 30), glm::dvec3(340, 340, 0));
+    const auto stats = tess.update(c);
+    EXPECT_TRUE(stats.rebuilt);
+    expectConforming(tess, t.spec());
+    expectIndexListsMatchMesh(tess);
+    EXPECT_LE(roam::measureScreenError(tess, t, c).max_pixels, 1.0);
 }
 
 } // namespace

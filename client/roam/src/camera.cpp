@@ -3,6 +3,7 @@
 #include <glm/geometric.hpp>
 
 #include <algorithm>
+#include <limits>
 
 namespace terrain::roam {
 
@@ -40,6 +41,17 @@ bool ViewMetric::intersectsFrustum(const Box& box) const {
             return false;
     }
     return true;
+}
+
+double ViewMetric::exitSlack(const Box& box) const {
+    double slack = std::numeric_limits<double>::infinity();
+    for (const Plane& p : planes_) {
+        const glm::dvec3 c{
+            p.normal.x >= 0.0 ? box.hi.x : box.lo.x, p.normal.y >= 0.0 ? box.hi.y : box.lo.y,
+            p.normal.z >= 0.0 ? box.hi.z : box.lo.z};
+        slack = std::min(slack, std::max(0.0, glm::dot(p.normal, c) + p.offset));
+    }
+    return slack;
 }
 
 double ViewMetric::distanceTo(const Box& box) const {

@@ -763,8 +763,8 @@ void Tessellator::evaluate(const ViewMetric& m, DiamondId id, FrameStats& stats)
     }
     if (p <= tau)
         merges_.push_back({p, id});
-    else
-        heapPush(id, travel_ + std::max(0.0, threshold - distance));
+    else // due when the eye has moved away far enough, or far enough to take it out of view
+        heapPush(id, travel_ + std::min(std::max(0.0, threshold - distance), m.exitSlack(box)));
 }
 
 void Tessellator::collectCandidates(const Triangle& t) {
@@ -911,25 +911,21 @@ void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
 }
 
 void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
-    // a turn may have taken split regions out of view: re-check merge candidates' culling
+    // merge candidates kept split because they were in view: their keys cover the eye moving
+    // them out of the frustum (exitSlack) but not the view turning, so after a turn of more
+    // than cull_sweep_degrees every one is re-checked against the frustum
     const glm::dvec3 forward = glm::normalize(m.camera().forward);
     if (glm::dot(forward, sweep_forward_) <
         std::cos(options_.cull_sweep_degrees * 3.14159265358979323846 / 180.0)) {
         sweep_forward_ = forward;
-        bool changed = false;
-        for (HeapEntry& e : heap_) {
-            if ((state_[e.id] & kMergeCandidate) == 0)
+        for (std::size_t i = 0; i < heap_.size(); ++i) {
+            const HeapEntry e = heap_[i];
+            if ((state_[e.id] & kMergeCandidate) == 0 || e.key <= travel_)
                 continue;
             const Box box = boxOf(diamondAt(pointOf(e.id)), e.id);
-            if (box.lo.x > box.hi.x || !m.intersectsFrustum(box)) {
-                e.key = travel_;
-                changed = true;
-            }
+            if (box.lo.x > box.hi.x || !m.intersectsFrustum(box))
+                heapPush(e.id, travel_); // due now; moves the entry towards the root
         }
-        if (changed)
-            for (std::size_t i = heap_.size() / 2 + 1; i-- > 0;)
-                if (i < heap_.size())
-                    heapSiftDown(i);
     }
     while (!heap_.empty() && heap_.front().key <= travel_) {
         const DiamondId id = heap_.front().id;
@@ -1050,6 +1046,14 @@ FrameStats Tessellator::update(const Camera& camera) {
     last_near_ = camera.near_plane;
     finishFrame(m, stats);
     return stats;
+}
+
+bool Tessellator::splitAt(LatticePoint p, FrameStats& stats) {
+    const DiamondId id = idOf(p);
+    const Diamond d = diamondAt(p);
+    if (id == kNoDiamond || !d.valid() || !initialized_)
+        return false;
+    return activate(d, id, false, stats);
 }
 
 void Tessellator::setTau(double tau_pixels) {

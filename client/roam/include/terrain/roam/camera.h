@@ -56,6 +56,9 @@ class ViewMetric {
     /// The same bound ignoring the frustum (what the box would need if the camera turned to it).
     double screenErrorAnyDirection(const Box& box, double error_metres) const;
     bool intersectsFrustum(const Box& box) const;
+    /// How far the eye must move (metres, view direction fixed) before `box`, which intersects
+    /// the frustum, can lie wholly outside it: the planes move with the eye.
+    double exitSlack(const Box& box) const;
     double distanceTo(const Box& box) const;
 
     /// Projection; depth <= near plane means the point is not visible.

@@ -25,10 +25,10 @@
 
 namespace terrain::roam {
 
-/// Cells of halo around each patch cell. The forced-split closure of a fully refined patch cell
-/// reaches cells at this distance (measured by the tessellator's tests, which fail if a needed
-/// split is ever refused for want of a block).
-inline constexpr std::int32_t kDetailHaloCells = 2;
+/// Cells of halo around each patch cell: the forced-split closure of a cell refined to its finest
+/// level puts vertices in the 8 cells around it and no further (RoamLattice test), and the
+/// closure of several cells is the union of theirs.
+inline constexpr std::int32_t kDetailHaloCells = 1;
 inline constexpr std::int32_t kBlockSide = 17;
 inline constexpr std::int32_t kBlockVertices = kBlockSide * kBlockSide;
 /// Height units of the tessellator's vertices per quantum.

@@ -50,7 +50,7 @@ struct TessellatorOptions {
     std::int64_t work_budget = 1'000'000;
     /// An eye jump longer than this rebuilds top-down; 0 means 8 tiles.
     double teleport_metres = 0.0;
-    /// View turn after which merge candidates are re-checked against the frustum.
+    /// View turn after which every merge candidate is re-checked against the frustum.
     double cull_sweep_degrees = 4.0;
 };
 
@@ -87,6 +87,10 @@ class Tessellator {
     void terrainChanged(std::span<const CellRect> cells, bool all);
 
     void setTau(double tau_pixels);
+    /// Splits the diamond centred at `p`, forcing every ancestor it needs, whatever the metric
+    /// says (tools, tests); the next update() merges it again if it is not needed. Returns false
+    /// if there is no such diamond or the cap refuses it.
+    bool splitAt(LatticePoint p, FrameStats& stats);
     const TessellatorOptions& options() const { return options_; }
 
     std::int32_t tileCount() const { return static_cast<std::int32_t>(tiles_.size()); }
