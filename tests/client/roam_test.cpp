@@ -6,9 +6,11 @@
 #include "support/mesh_checks.h"
 #include "support/terrain_builders.h"
 
+#include <terrain/client/replica.h>
 #include <terrain/io/dem_import.h>
 #include <terrain/roam/screen_error.h>
 #include <terrain/roam/tessellator.h>
+#include <terrain/snapshot.h>
 #include <terrain/surface_query.h>
 
 #include <gtest/gtest.h>
@@ -443,6 +445,60 @@ TEST(RoamMesh, IncrementalBoundsAfterOpsEqualAFreshBuild) {
     EXPECT_GT(compared, 10000);
     EXPECT_EQ(leaves(tess), leaves(fresh));
     expectIndexListsMatchMesh(tess);
+}
+
+TEST(RoamMesh, FollowsAReplicaThroughOpsAndASnapshot) {
+    // the client's loop: ops reach the replica, its dirty set reaches the tessellator
+    Terrain server = makeHills(14);
+    auto decoded = decodeSnapshot(encodeSnapshot(server, 0));
+    ASSERT_TRUE(decoded.ok());
+    client::Replica replica;
+    replica.loadSnapshot(std::move(*decoded));
+    replica.takeDirty();
+    Tessellator tess(replica.terrain(), {});
+    const Camera c = overview(server, 40.0);
+    tess.update(c);
+    CraterSeries s;
+    s.seed = 14;
+    s.count = 12;
+    std::uint64_t seq = 0;
+    for (const OpRequest& r : randomCraters(server.spec(), s)) {
+        auto op = quantizeOp(r, server.spec());
+        ASSERT_TRUE(op.ok());
+        ASSERT_TRUE(server.apply(*op).ok());
+        auto outcome = replica.applyOp(++seq, *op, server.worldHash());
+        ASSERT_TRUE(outcome.ok());
+        ASSERT_EQ(*outcome, client::Replica::OpOutcome::kApplied);
+        if (seq % 3 == 0) { // several ops per frame, as when frames are slower than ops
+            const client::DirtySet dirty = replica.takeDirty();
+            tess.terrainChanged(dirty.cells, dirty.all);
+            tess.update(c);
+        }
+    }
+    const client::DirtySet dirty = replica.takeDirty();
+    tess.terrainChanged(dirty.cells, dirty.all);
+    tess.update(c);
+    Tessellator fresh(replica.terrain(), {});
+    fresh.update(c);
+    EXPECT_EQ(leaves(tess), leaves(fresh));
+    expectConforming(tess, server.spec());
+    expectIndexListsMatchMesh(tess);
+
+    // a snapshot of another world replaces everything, size included
+    Terrain other = makeHills(15, 200, 90);
+    auto next = decodeSnapshot(encodeSnapshot(other, 100));
+    ASSERT_TRUE(next.ok());
+    replica.loadSnapshot(std::move(*next));
+    const client::DirtySet all = replica.takeDirty();
+    ASSERT_TRUE(all.all);
+    tess.terrainChanged(all.cells, all.all);
+    const Camera c2 = overview(other, 40.0);
+    const auto stats = tess.update(c2);
+    EXPECT_TRUE(stats.rebuilt);
+    EXPECT_EQ(tess.tileCount(), other.spec().tileCount());
+    expectConforming(tess, other.spec());
+    expectIndexListsMatchMesh(tess);
+    EXPECT_LE(roam::measureScreenError(tess, replica.terrain(), c2).max_pixels, 1.0);
 }
 
 TEST(RoamMesh, ASteadyFrameAllocatesNothing) {

@@ -59,7 +59,12 @@ std::int32_t reachOfLevel(int level) {
 } // namespace
 
 Tessellator::Tessellator(const Terrain& terrain, const TessellatorOptions& options)
-    : terrain_(&terrain), options_(options), spec_(terrain.spec()) {
+    : terrain_(&terrain), options_(options) {
+    terrainChanged({}, true);
+}
+
+void Tessellator::adoptSpec() {
+    spec_ = terrain_->spec();
     metres_per_lattice_ = spec_.spacingMetres() / kLatticePerCell;
     metres_per_fine_ = spec_.metresPerUnit() / static_cast<double>(kFineUnitsPerQuantum);
     grid_w_ = spec_.paddedWidth();
@@ -70,11 +75,19 @@ Tessellator::Tessellator(const Terrain& terrain, const TessellatorOptions& optio
     real_y_ = spec_.cellsY() * kLatticePerCell;
     grid_count_ = static_cast<std::uint32_t>(grid_w_) * static_cast<std::uint32_t>(grid_h_);
     const std::size_t tiles = idx(spec_.tileCount());
+    tiles_.clear();
     tiles_.resize(tiles);
     tile_visible_.assign(tiles, 0);
     vertex_version_.assign(tiles, 0);
+    tile_blocks_.clear();
     tile_blocks_.resize(tiles);
-    terrainChanged({}, true);
+    delta_.clear();
+    zlo_.clear();
+    zhi_.clear();
+    state_.clear();
+    heap_pos_.clear();
+    block_local_.clear();
+    heap_.clear();
 }
 
 // ---- ids and heights ----------------------------------------------------------------------
@@ -563,6 +576,9 @@ TileVertex Tessellator::tileVertex(std::int32_t tile, std::uint32_t index) const
 
 void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
     if (all) {
+        // a snapshot may bring another world (size, spacing): start from its spec
+        if (tiles_.empty() || !(terrain_->spec() == spec_))
+            adoptSpec();
         blocks_.reset(*terrain_);
         resizeDiamondState();
         std::fill(state_.begin(), state_.end(), std::uint8_t{0});

@@ -82,7 +82,8 @@ class Tessellator {
     FrameStats update(const Camera& camera);
 
     /// The terrain changed under `cells` (one rectangle per op, from the replica's DirtySet), or
-    /// everything when `all`. Rebuilds blocks and bounds along the changed paths only; affected
+    /// everything when `all` (a snapshot, possibly of another world: the terrain object must be
+    /// the same one). Rebuilds blocks and bounds along the changed paths only; affected
     /// candidates are re-examined on the next update().
     void terrainChanged(std::span<const CellRect> cells, bool all);
 
@@ -128,6 +129,7 @@ class Tessellator {
     static std::size_t idx(std::int64_t v) { return static_cast<std::size_t>(v); }
 
     // the id space: grid vertices first, then 256 per block slot (half-open 16 x 16 cell lattice)
+    void adoptSpec();
     bool insideMap(LatticePoint p) const {
         return p.x >= 0 && p.y >= 0 && p.x <= max_x_ && p.y <= max_y_;
     }
