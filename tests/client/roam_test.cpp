@@ -501,6 +501,114 @@ TEST(RoamMesh, FollowsAReplicaThroughOpsAndASnapshot) {
     EXPECT_LE(roam::measureScreenError(tess, replica.terrain(), c2).max_pixels, 1.0);
 }
 
+// ---- where such methods are known to fail ---------------------------------------------------
+
+TEST(RoamStability, FastSpinsKeepTheBoundAndTheTriangleCount) {
+    const Terrain t = cratered(16, 40);
+    TessellatorOptions sm;
+    TessellatorOptions so;
+    so.mode = TessellationMode::kSplitOnly;
+    Tessellator a(t, sm);
+    Tessellator b(t, so);
+    const double cx = t.spec().extentX() / 2;
+    const double cy = t.spec().extentY() / 2;
+    const glm::dvec3 eye(cx, cy, surfaceHeight(t, cx, cy) + 4.0);
+    for (int f = 0; f < 36; ++f) {
+        const double yaw = f * 41.0 * M_PI / 180.0; // a whip pan: 41 degrees per frame
+        const Camera c = lookAt(eye, eye + glm::dvec3(std::cos(yaw), std::sin(yaw), -0.3));
+        const auto sa = a.update(c);
+        const auto sb = b.update(c);
+        EXPECT_FALSE(f > 0 && sa.rebuilt) << "turning alone is no teleport";
+        EXPECT_LE(
+            std::abs(static_cast<double>(sa.visible_triangles - sb.visible_triangles)),
+            0.10 * static_cast<double>(sb.visible_triangles))
+            << "frame " << f;
+        if (f % 9 == 4) {
+            expectConforming(a, t.spec());
+            expectIndexListsMatchMesh(a);
+            EXPECT_LE(roam::measureScreenError(a, t, c).max_pixels, sm.tau_pixels);
+        }
+    }
+}
+
+TEST(RoamStability, CraterStormAtEdgesSeamsAndCornersMatchesAFreshBuild) {
+    Terrain t = makeHills(17, 193, 129); // 3 x 2 tiles, no padding
+    Tessellator tess(t, {});
+    const Camera c = overview(t, 60.0);
+    tess.update(c);
+    const double w = t.spec().extentX();
+    const double h = t.spec().extentY();
+    const double seam = 64.0 * t.spec().spacingMetres();
+    // corners, edges, tile seams and their crossing; radii from the smallest to large
+    const std::vector<std::array<double, 3>> storm = {
+        {0.0, 0.0, 1.0},
+        {w, h, 2.5},
+        {w, 0.0, 6.0},
+        {0.0, h, 0.8},
+        {seam, seam, 3.0},
+        {2 * seam, seam, 1.2},
+        {seam, 0.0, 4.0},
+        {w / 2, h, 2.0},
+        {seam + 0.3, seam - 0.2, 0.7},
+        {w / 2, h / 2, 40.0},
+        {2 * seam - 0.5, 10.0, 5.0},
+        {w - 0.5, h / 2, 1.5}};
+    int in_frame = 0;
+    for (const auto& [x, y, r] : storm) {
+        OpRequest crater;
+        crater.x = x;
+        crater.y = y;
+        crater.radius = r;
+        crater.height = 0.6 * r;
+        auto op = quantizeOp(crater, t.spec());
+        ASSERT_TRUE(op.ok()) << op.error().message;
+        auto effect = t.apply(*op);
+        ASSERT_TRUE(effect.ok());
+        tess.terrainChanged(std::span<const CellRect>(&effect->cells, 1), false);
+        if (++in_frame == 4) { // several ops land between two frames
+            in_frame = 0;
+            tess.update(c);
+            expectConforming(tess, t.spec());
+        }
+    }
+    tess.update(c);
+    Tessellator fresh(t, {});
+    fresh.update(c);
+    EXPECT_EQ(leaves(tess), leaves(fresh));
+    expectIndexListsMatchMesh(tess);
+    EXPECT_LE(roam::measureScreenError(tess, t, c).max_pixels, 1.0);
+    EXPECT_EQ(tess.missingBlockRefusals(), 0);
+}
+
+TEST(RoamStability, SpikyTerrainAndTauNearZero) {
+    // white noise of +-30 m on every sample: no smoothness for the bounds to lean on
+    WorldSpec spec;
+    spec.width = 97;
+    spec.height = 70;
+    std::vector<std::int32_t> samples(static_cast<std::size_t>(spec.width * spec.height));
+    std::mt19937_64 rng(18);
+    std::uniform_int_distribution<std::int32_t> noise(-30 * 1024, 30 * 1024);
+    for (auto& v : samples)
+        v = noise(rng);
+    auto made = Terrain::create(spec, samples);
+    ASSERT_TRUE(made.ok());
+    const Terrain& t = *made;
+    for (const double tau : {4.0, 0.05}) {
+        TessellatorOptions o;
+        o.tau_pixels = tau;
+        Tessellator tess(t, o);
+        std::mt19937_64 cams(19);
+        for (int i = 0; i < 2; ++i) {
+            Camera c = randomCamera(t, cams);
+            c.eye.z += 35.0;
+            tess.update(c);
+            expectConforming(tess, t.spec());
+            expectIndexListsMatchMesh(tess);
+            EXPECT_LE(roam::measureScreenError(tess, t, c).max_pixels, tau) << "tau " << tau;
+        }
+    }
+}
+
 TEST(RoamMesh, ASteadyFrameAllocatesNothing) {
     const Terrain t = cratered(8, 30);
     Tessellator tess(t, {});
