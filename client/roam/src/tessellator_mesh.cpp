@@ -1,0 +1,376 @@
+// The tessellator's mesh: splits and merges of diamonds into the tiles' index slots, full
+// emission of a tile, tile vertex arrays, and what an op changes.
+
+#include "tessellator_internal.h"
+
+#include <terrain/roam/tessellator.h>
+
+#include <algorithm>
+
+namespace terrain::roam {
+
+using namespace detail;
+
+// ---- the mesh -----------------------------------------------------------------------------
+
+std::int32_t Tessellator::tileOf(const Triangle& t) const {
+    const LatticePoint c3 = centroidTimes3(t);
+    return (c3.y / (3 * kLatticePerTile)) * spec_.tilesX() + c3.x / (3 * kLatticePerTile);
+}
+
+bool Tessellator::emitted(const Triangle& t) const {
+    const std::int32_t min_x = std::min({t.apex.x, t.left.x, t.right.x});
+    const std::int32_t min_y = std::min({t.apex.y, t.left.y, t.right.y});
+    return min_x < real_x_ && min_y < real_y_;
+}
+
+TileMesh::Indices Tessellator::indicesOf(const Triangle& t, std::int32_t tile) const {
+    const std::int32_t tx = tile % spec_.tilesX();
+    const std::int32_t ty = tile / spec_.tilesX();
+    TileMesh::Indices out{};
+    const std::array<LatticePoint, 3> v = {t.apex, t.left, t.right};
+    if (t.level <= kCellTriangleLevel) {
+        for (std::size_t i = 0; i < 3; ++i)
+            out[i] = static_cast<std::uint32_t>(
+                (v[i].y / kLatticePerCell - ty * kTileCells) * kTileVertices +
+                (v[i].x / kLatticePerCell - tx * kTileCells));
+        return out;
+    }
+    const LatticePoint c3 = centroidTimes3(t);
+    const std::int32_t cx = c3.x / (3 * kLatticePerCell);
+    const std::int32_t cy = c3.y / (3 * kLatticePerCell);
+    const std::int32_t block = blocks_.blockOf(cx, cy);
+    const std::int32_t base = kBaseVertices + block_local_[idx(block)] * kBlockVertices;
+    for (std::size_t i = 0; i < 3; ++i)
+        out[i] = static_cast<std::uint32_t>(
+            base + (v[i].y - cy * kLatticePerCell) * kBlockSide + (v[i].x - cx * kLatticePerCell));
+    return out;
+}
+
+bool Tessellator::hasActiveChild(const Diamond& d) const {
+    std::array<LatticePoint, 4> kids{};
+    const int n = children(d, kids);
+    for (int i = 0; i < n; ++i)
+        if (active(idOf(kids[idx(i)])))
+            return true;
+    return false;
+}
+
+bool Tessellator::canActivate(const Diamond& d, DiamondId id) const {
+    if (id == kNoDiamond)
+        return false;
+    if (d.level == 0)
+        return true;
+    for (const LatticePoint a : apexes(d))
+        if (insideMap(a) && !active(idOf(a)))
+            return false;
+    return true;
+}
+
+void Tessellator::splitTriangles(const Diamond& d, bool split, bool forced) {
+    for (const LatticePoint a : apexes(d)) {
+        if (!insideMap(a))
+            continue;
+        const Triangle t = triangleOf(d, a);
+        const auto halves = splitTriangle(t);
+        const std::int32_t tile = tileOf(t);
+        TileMesh& mesh = tiles_[idx(tile)];
+        if (split) {
+            if (emitted(t))
+                mesh.remove(triangleKey(t));
+            for (const Triangle& h : halves)
+                if (emitted(h))
+                    mesh.add(triangleKey(h), indicesOf(h, tile));
+            ++mesh.counters().splits;
+            if (forced)
+                ++mesh.counters().forced_splits;
+        } else {
+            // second half first, so the parent takes back the first half's slot (its own)
+            if (emitted(halves[1]))
+                mesh.remove(triangleKey(halves[1]));
+            if (emitted(halves[0]))
+                mesh.remove(triangleKey(halves[0]));
+            if (emitted(t))
+                mesh.add(triangleKey(t), indicesOf(t, tile));
+            ++mesh.counters().merges;
+        }
+    }
+}
+
+std::int64_t Tessellator::splitGain(const Diamond& d) const {
+    std::int64_t gain = 0;
+    for (const LatticePoint a : apexes(d)) {
+        if (!insideMap(a))
+            continue;
+        const Triangle t = triangleOf(d, a);
+        const auto halves = splitTriangle(t);
+        gain += (emitted(halves[0]) ? 1 : 0) + (emitted(halves[1]) ? 1 : 0) - (emitted(t) ? 1 : 0);
+    }
+    return gain;
+}
+
+bool Tessellator::activate(const Diamond& d, DiamondId id, bool forced, FrameStats& stats) {
+    if (active(id))
+        return true;
+    if (d.level > 0) {
+        for (const LatticePoint a : apexes(d)) {
+            if (!insideMap(a))
+                continue;
+            const DiamondId parent = idOf(a);
+            if (parent == kNoDiamond) {
+                ++missing_block_refusals_;
+                return false;
+            }
+            if (!active(parent) && !activate(diamondAt(a), parent, true, stats))
+                return false;
+        }
+    }
+    const std::int64_t gain = splitGain(d);
+    if (triangles_ + gain > options_.max_triangles) {
+        ++stats.refused_by_cap;
+        refused_by_cap_ = true;
+        return false;
+    }
+    state_[id] |= kActive;
+    triangles_ += gain;
+    ++stats.splits;
+    if (forced)
+        ++stats.forced_splits;
+    if (!bookkeeping_)
+        return true;
+    splitTriangles(d, true, forced);
+    clearCandidate(id);
+    if (d.level > 0)
+        for (const LatticePoint a : apexes(d))
+            if (insideMap(a)) {
+                const DiamondId parent = idOf(a);
+                if ((state_[parent] & kMergeCandidate) != 0)
+                    clearCandidate(parent);
+            }
+    setCandidate(id, kMergeCandidate);
+    due_.push_back(id);
+    std::array<LatticePoint, 4> kids{};
+    const int n = children(d, kids);
+    for (int i = 0; i < n; ++i) {
+        const LatticePoint c = kids[idx(i)];
+        if (!insideMap(c))
+            continue;
+        const DiamondId child = idOf(c);
+        if (child != kNoDiamond && !active(child) && canActivate(diamondAt(c), child)) {
+            setCandidate(child, kSplitCandidate);
+            due_.push_back(child);
+        }
+    }
+    return true;
+}
+
+void Tessellator::deactivate(const Diamond& d, DiamondId id, FrameStats& stats) {
+    state_[id] = static_cast<std::uint8_t>(state_[id] & ~kActive);
+    triangles_ -= splitGain(d);
+    ++stats.merges;
+    if (!bookkeeping_)
+        return;
+    splitTriangles(d, false, false);
+    clearCandidate(id);
+    setCandidate(id, kSplitCandidate);
+    due_.push_back(id);
+    std::array<LatticePoint, 4> kids{};
+    const int n = children(d, kids);
+    for (int i = 0; i < n; ++i) {
+        const DiamondId child = idOf(kids[idx(i)]);
+        if (child != kNoDiamond && (state_[child] & kSplitCandidate) != 0)
+            clearCandidate(child);
+    }
+    if (d.level == 0)
+        return;
+    for (const LatticePoint a : apexes(d)) {
+        if (!insideMap(a))
+            continue;
+        const DiamondId parent = idOf(a);
+        const Diamond pd = diamondAt(a);
+        if (active(parent) && !hasActiveChild(pd)) {
+            setCandidate(parent, kMergeCandidate);
+            due_.push_back(parent);
+        }
+    }
+}
+
+void Tessellator::deactivateSubtree(LatticePoint p, FrameStats& stats) {
+    const DiamondId id = idOf(p);
+    if (!active(id))
+        return;
+    const Diamond d = diamondAt(p);
+    std::array<LatticePoint, 4> kids{};
+    const int n = children(d, kids);
+    for (int i = 0; i < n; ++i)
+        if (insideMap(kids[idx(i)]))
+            deactivateSubtree(kids[idx(i)], stats);
+    deactivate(d, id, stats);
+}
+
+void Tessellator::emitTriangle(const Triangle& t, std::int32_t tile, TileMesh& mesh) {
+    if (t.level < kFinestTriangleLevel && active(idOf(splitPoint(t)))) {
+        const auto halves = splitTriangle(t);
+        emitTriangle(halves[0], tile, mesh);
+        emitTriangle(halves[1], tile, mesh);
+        return;
+    }
+    if (emitted(t))
+        mesh.add(triangleKey(t), indicesOf(t, tile));
+}
+
+Diamond Tessellator::tileRoot(std::int32_t tile) const {
+    const std::int32_t tx = tile % spec_.tilesX();
+    const std::int32_t ty = tile / spec_.tilesX();
+    return diamondAt(
+        {tx * kLatticePerTile + kLatticePerTile / 2, ty * kLatticePerTile + kLatticePerTile / 2});
+}
+
+void Tessellator::emitTile(std::int32_t tile) {
+    TileMesh& mesh = tiles_[idx(tile)];
+    mesh.clear();
+    const Diamond root = tileRoot(tile);
+    for (const LatticePoint a : apexes(root))
+        emitTriangle(triangleOf(root, a), tile, mesh);
+}
+
+void Tessellator::rebuildTileBlocks(std::int32_t tile) {
+    const std::int32_t tx = tile % spec_.tilesX();
+    const std::int32_t ty = tile / spec_.tilesX();
+    auto& list = tile_blocks_[idx(tile)];
+    list.clear();
+    for (std::int32_t cy = ty * kTileCells; cy < (ty + 1) * kTileCells; ++cy)
+        for (std::int32_t cx = tx * kTileCells; cx < (tx + 1) * kTileCells; ++cx)
+            if (const std::int32_t b = blocks_.blockOf(cx, cy); b >= 0) {
+                block_local_[idx(b)] = static_cast<std::int32_t>(list.size());
+                list.push_back(b);
+            }
+}
+
+std::int32_t Tessellator::tileVertexCount(std::int32_t tile) const {
+    return kBaseVertices +
+           static_cast<std::int32_t>(tile_blocks_[idx(tile)].size()) * kBlockVertices;
+}
+
+TileVertex Tessellator::tileVertex(std::int32_t tile, std::uint32_t index) const {
+    const std::int32_t tx = tile % spec_.tilesX();
+    const std::int32_t ty = tile / spec_.tilesX();
+    const auto i = static_cast<std::int32_t>(index);
+    if (i < kBaseVertices) {
+        const std::int32_t gx = tx * kTileCells + i % kTileVertices;
+        const std::int32_t gy = ty * kTileCells + i / kTileVertices;
+        return {
+            {gx * kLatticePerCell, gy * kLatticePerCell},
+            static_cast<std::int64_t>(terrain_->sample(gx, gy)) * kFineUnitsPerQuantum};
+    }
+    const std::int32_t r = i - kBaseVertices;
+    const std::int32_t block = tile_blocks_[idx(tile)][idx(r / kBlockVertices)];
+    const std::int32_t k = (r % kBlockVertices) % kBlockSide;
+    const std::int32_t l = (r % kBlockVertices) / kBlockSide;
+    const DetailBlocks::CellXY c = blocks_.cellOf(block);
+    return {{c.x * kLatticePerCell + k, c.y * kLatticePerCell + l}, blocks_.height(block, k, l)};
+}
+
+// ---- terrain changes ----------------------------------------------------------------------
+
+void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
+    if (all) {
+        // a snapshot may bring another world (size, spacing): start from its spec
+        if (tiles_.empty() || !(terrain_->spec() == spec_))
+            adoptSpec();
+        blocks_.reset(*terrain_);
+        resizeDiamondState();
+        std::fill(state_.begin(), state_.end(), std::uint8_t{0});
+        std::fill(heap_pos_.begin(), heap_pos_.end(), -1);
+        heap_.clear();
+        watched_.clear();
+        due_.clear();
+        for (std::int32_t tile = 0; tile < tileCount(); ++tile) {
+            rebuildTileBlocks(tile);
+            ++vertex_version_[idx(tile)];
+        }
+        recomputeBounds(0, 0, max_x_, max_y_);
+        needs_rebuild_ = true;
+        return;
+    }
+    FrameStats ignored;
+    for (const CellRect& r : cells) {
+        if (r.empty())
+            continue;
+        // blocks about to go: coarsen everything that refines into them first
+        removing_.clear();
+        changed_tiles_.clear();
+        auto note_block_cell = [&](DetailBlocks::CellXY c) {
+            changed_tiles_.push_back((c.y / kTileCells) * spec_.tilesX() + c.x / kTileCells);
+        };
+        blocks_.plan(*terrain_, r, removing_);
+        for (const std::int32_t block : removing_) {
+            note_block_cell(blocks_.cellOf(block));
+            const DetailBlocks::CellXY c = blocks_.cellOf(block);
+            for (std::uint32_t local = 1; local < kDiamondsPerBlock; ++local)
+                deactivateSubtree(
+                    {c.x * kLatticePerCell + static_cast<std::int32_t>(local % kLatticePerCell),
+                     c.y * kLatticePerCell + static_cast<std::int32_t>(local / kLatticePerCell)},
+                    ignored);
+            for (std::uint32_t local = 0; local < kDiamondsPerBlock; ++local) {
+                const DiamondId id =
+                    grid_count_ + static_cast<DiamondId>(block) * kDiamondsPerBlock + local;
+                clearCandidate(id);
+                state_[id] = 0;
+            }
+        }
+        removed_.clear();
+        added_.clear();
+        blocks_.update(*terrain_, r, removed_, added_);
+        resizeDiamondState();
+        for (const std::int32_t block : added_)
+            for (std::uint32_t local = 0; local < kDiamondsPerBlock; ++local) {
+                const DiamondId id =
+                    grid_count_ + static_cast<DiamondId>(block) * kDiamondsPerBlock + local;
+                state_[id] = 0;
+                heap_pos_[id] = -1;
+            }
+        // tiles whose block lists changed get new vertex arrays and a full index rewrite
+        for (const std::int32_t block : added_)
+            note_block_cell(blocks_.cellOf(block));
+        std::sort(changed_tiles_.begin(), changed_tiles_.end());
+        changed_tiles_.erase(
+            std::unique(changed_tiles_.begin(), changed_tiles_.end()), changed_tiles_.end());
+        for (const std::int32_t tile : changed_tiles_)
+            rebuildTileBlocks(tile);
+        // heights moved in these tiles
+        for (std::int32_t ty = r.y0 / kTileCells;
+             ty <= std::min(r.y1, blocks_.cellsY() - 1) / kTileCells; ++ty)
+            for (std::int32_t tx = r.x0 / kTileCells;
+                 tx <= std::min(r.x1, blocks_.cellsX() - 1) / kTileCells; ++tx)
+                ++vertex_version_[idx(ty * spec_.tilesX() + tx)];
+        recomputed_.clear();
+        recomputeBounds(
+            (r.x0 - 1) * kLatticePerCell, (r.y0 - 1) * kLatticePerCell,
+            (r.x1 + 2) * kLatticePerCell, (r.y1 + 2) * kLatticePerCell);
+        if (initialized_ && !needs_rebuild_) {
+            for (const std::int32_t tile : changed_tiles_) {
+                ++vertex_version_[idx(tile)];
+                emitTile(tile);
+            }
+            for (const DiamondId id : recomputed_)
+                refreshCandidate(id);
+        }
+    }
+}
+
+void Tessellator::refreshCandidate(DiamondId id) {
+    const Diamond d = diamondAt(pointOf(id));
+    std::uint8_t kind = 0;
+    if (active(id))
+        kind = hasActiveChild(d) ? 0 : kMergeCandidate;
+    else if (canActivate(d, id))
+        kind = kSplitCandidate;
+    clearCandidate(id);
+    if (kind != 0) {
+        setCandidate(id, kind);
+        due_.push_back(id);
+    }
+}
+
+} // namespace terrain::roam
