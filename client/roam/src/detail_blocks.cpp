@@ -62,14 +62,19 @@ bool DetailBlocks::needsBlock(const Terrain& t, std::int32_t cx, std::int32_t cy
     return false;
 }
 
+CellRect DetailBlocks::aroundChange(CellRect cells) const {
+    // a patch appearing or going changes the needs of cells up to the halo away
+    return {
+        std::max(0, cells.x0 - kDetailHaloCells), std::max(0, cells.y0 - kDetailHaloCells),
+        std::min(cells_x_ - 1, cells.x1 + kDetailHaloCells),
+        std::min(cells_y_ - 1, cells.y1 + kDetailHaloCells)};
+}
+
 void DetailBlocks::plan(
     const Terrain& t, CellRect cells, std::vector<std::int32_t>& removing) const {
     if (cells.empty())
         return;
-    const std::int32_t x0 = std::max(0, cells.x0 - kDetailHaloCells);
-    const std::int32_t y0 = std::max(0, cells.y0 - kDetailHaloCells);
-    const std::int32_t x1 = std::min(cells_x_ - 1, cells.x1 + kDetailHaloCells);
-    const std::int32_t y1 = std::min(cells_y_ - 1, cells.y1 + kDetailHaloCells);
+    const auto [x0, y0, x1, y1] = aroundChange(cells);
     for (std::int32_t y = y0; y <= y1; ++y)
         for (std::int32_t x = x0; x <= x1; ++x)
             if (const std::int32_t block = blockOf(x, y); block >= 0 && !needsBlock(t, x, y))
@@ -83,10 +88,7 @@ void DetailBlocks::update(
     std::vector<std::int32_t>& added) {
     if (cells.empty())
         return;
-    const std::int32_t x0 = std::max(0, cells.x0 - kDetailHaloCells);
-    const std::int32_t y0 = std::max(0, cells.y0 - kDetailHaloCells);
-    const std::int32_t x1 = std::min(cells_x_ - 1, cells.x1 + kDetailHaloCells);
-    const std::int32_t y1 = std::min(cells_y_ - 1, cells.y1 + kDetailHaloCells);
+    const auto [x0, y0, x1, y1] = aroundChange(cells);
     for (std::int32_t y = y0; y <= y1; ++y) {
         for (std::int32_t x = x0; x <= x1; ++x) {
             const bool need = needsBlock(t, x, y);

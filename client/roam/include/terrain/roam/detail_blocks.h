@@ -86,6 +86,7 @@ class DetailBlocks {
   private:
     static std::size_t idx(std::int32_t v) { return static_cast<std::size_t>(v); }
     bool needsBlock(const Terrain& t, std::int32_t cx, std::int32_t cy) const;
+    CellRect aroundChange(CellRect cells) const;
     std::int32_t take(std::int32_t cx, std::int32_t cy);
     void release(std::int32_t block);
     void fill(const Terrain& t, std::int32_t block);
