@@ -153,6 +153,47 @@ TEST(RoamLattice, FullRefinementOfACellReachesOnlyItsNeighbours) {
         }
 }
 
+TEST(RoamTileMesh, SlotsStayDenseAndEveryWriteIsCounted) {
+    roam::TileMesh mesh;
+    for (std::uint32_t k = 1; k <= 100; ++k)
+        mesh.add(k, {k, k + 1, k + 2});
+    mesh.takeChanges();
+    const std::uint64_t before = mesh.counters().index_bytes_written;
+    std::mt19937_64 rng(1);
+    std::set<std::uint64_t> gone;
+    while (gone.size() < 40)
+        gone.insert(1 + rng() % 100);
+    for (const std::uint64_t k : gone)
+        EXPECT_TRUE(mesh.remove(k));
+    EXPECT_FALSE(mesh.remove(*gone.begin()));
+    mesh.add(1000, {1000, 1001, 1002}); // takes the last freed slot
+    mesh.fillHoles();
+    ASSERT_EQ(mesh.slotCount(), 61u);
+    EXPECT_EQ(mesh.triangleCount(), 61u);
+    // every remaining triangle is there exactly once, with its own indices
+    std::multiset<std::uint32_t> firsts;
+    const auto idx = mesh.indices();
+    for (std::size_t i = 0; i < idx.size(); i += 3) {
+        EXPECT_EQ(idx[i + 1], idx[i] + 1);
+        firsts.insert(idx[i]);
+    }
+    for (std::uint32_t k = 1; k <= 100; ++k) {
+        EXPECT_EQ(firsts.count(k), gone.count(k) ? 0u : 1u) << k;
+        EXPECT_EQ(mesh.contains(k), gone.count(k) == 0);
+    }
+    EXPECT_EQ(firsts.count(1000), 1u);
+    // 40 frees + 1 add + at most 39 moves, 12 bytes each: never a full rewrite
+    const std::uint64_t written = mesh.counters().index_bytes_written - before;
+    EXPECT_LE(written, (40u + 1u + 39u) * roam::TileMesh::kIndexBytesPerTriangle);
+    EXPECT_TRUE(mesh.dirty());
+    EXPECT_FALSE(mesh.rewritten());
+    EXPECT_GT(mesh.dirtyUploadBytes(), 0u);
+    EXPECT_LE(mesh.dirtyUploadBytes(), 61u * roam::TileMesh::kIndexBytesPerTriangle);
+    mesh.takeChanges();
+    EXPECT_FALSE(mesh.dirty());
+    EXPECT_EQ(mesh.dirtyUploadBytes(), 0u);
+}
+
 TEST(RoamMesh, ConformsAndMeetsTauOnHillsWithCraters) {
     const Terrain t = cratered(7, 40);
     ASSERT_GT(t.patchCount(), 0u);

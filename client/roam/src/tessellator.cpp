@@ -300,21 +300,38 @@ void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
 
 void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
     // merge candidates kept split because they were in view: their keys cover the eye moving
-    // them out of the frustum (exitSlack) but not the view turning, so after a turn of more
-    // than cull_sweep_degrees every one is re-checked against the frustum
+    // them out of the frustum (exitSlack) but not the view turning. So their culling is
+    // re-checked in rotation, as many per frame as the view turned: all of them over every
+    // cull_sweep_degrees of turning (a region stays split at most that long after it left the
+    // view), spread over the frames instead of in one burst.
     const glm::dvec3 forward = glm::normalize(m.camera().forward);
-    if (glm::dot(forward, sweep_forward_) <
-        std::cos(options_.cull_sweep_degrees * 3.14159265358979323846 / 180.0)) {
-        sweep_forward_ = forward;
-        for (std::size_t i = 0; i < heap_.size(); ++i) {
-            const HeapEntry e = heap_[i];
-            if ((state_[e.id] & kMergeCandidate) == 0 || e.key <= travel_)
-                continue;
-            const Box box = boxOf(diamondAt(pointOf(e.id)), e.id);
-            if (box.lo.x > box.hi.x || !m.intersectsFrustum(box))
-                heapPush(e.id, travel_); // due now; moves the entry towards the root
-        }
+    const glm::dvec3 up = glm::normalize(m.camera().up);
+    const double turned = std::acos(std::clamp(glm::dot(forward, last_forward_), -1.0, 1.0)) +
+                          std::acos(std::clamp(glm::dot(up, last_up_), -1.0, 1.0));
+    last_forward_ = forward;
+    last_up_ = up;
+    sweep_credit_ += static_cast<double>(heap_.size()) * turned /
+                     (options_.cull_sweep_degrees * 3.14159265358979323846 / 180.0);
+    const auto sweep =
+        static_cast<std::size_t>(std::min(sweep_credit_, static_cast<double>(heap_.size())));
+    sweep_credit_ = std::min(sweep_credit_ - static_cast<double>(sweep), 1.0);
+    for (std::size_t k = 0; k < sweep; ++k) {
+        // low-discrepancy order (golden-ratio steps) rather than heap order: entries near the
+        // heap's front are the ones near the frustum's sides, and checking them in one block
+        // would merge everything that left the view in one burst
+        sweep_phase_ += 0.6180339887498949;
+        sweep_phase_ -= std::floor(sweep_phase_);
+        const HeapEntry e =
+            heap_[static_cast<std::size_t>(sweep_phase_ * static_cast<double>(heap_.size()))];
+        if ((state_[e.id] & kMergeCandidate) == 0 || e.key <= travel_)
+            continue;
+        const Box box = boxOf(diamondAt(pointOf(e.id)), e.id);
+        if (box.lo.x > box.hi.x || !m.intersectsFrustum(box))
+            due_.push_back(e.id); // taken out of the heap below, so the sweep skips no entry
     }
+    for (const DiamondId id : due_)
+        if (heap_pos_[id] >= 0)
+            heapRemove(id);
     while (!heap_.empty() && heap_.front().key <= travel_) {
         const DiamondId id = heap_.front().id;
         heapRemove(id);
@@ -383,8 +400,7 @@ void Tessellator::finishFrame(const ViewMetric& m, FrameStats& stats) {
     std::uint64_t written = 0;
     for (std::int32_t tile = 0; tile < tileCount(); ++tile) {
         TileMesh& mesh = tiles_[idx(tile)];
-        if (mesh.dirty())
-            mesh.compactIfSparse();
+        mesh.fillHoles();
         written += mesh.counters().index_bytes_written;
         const Diamond root = tileRoot(tile);
         const DiamondId id = idOf(root.centre);
@@ -424,7 +440,9 @@ FrameStats Tessellator::update(const Camera& camera) {
         rebuildTopDown(m, stats);
         needs_rebuild_ = false;
         initialized_ = true;
-        sweep_forward_ = glm::normalize(camera.forward);
+        last_forward_ = glm::normalize(camera.forward);
+        last_up_ = glm::normalize(camera.up);
+        sweep_credit_ = 0.0;
     } else {
         travel_ += glm::length(camera.eye - last_eye_);
         updateSplitMerge(m, stats);

@@ -21,8 +21,10 @@ void TileMesh::clear() {
     std::fill(table_keys_.begin(), table_keys_.end(), kNoKey);
     table_used_ = 0;
     live_ = 0;
-    dirty_first_ = 0;
-    dirty_last_ = 0;
+    for (const std::uint32_t page : dirty_pages_)
+        page_dirty_[page] = 0;
+    dirty_pages_.clear();
+    cleared_ = true;
     ++counters_.rebuilds;
 }
 
@@ -92,12 +94,14 @@ void TileMesh::write(std::uint32_t slot, const Indices& indices) {
     std::copy(
         indices.begin(), indices.end(), indices_.begin() + 3 * static_cast<std::ptrdiff_t>(slot));
     counters_.index_bytes_written += kIndexBytesPerTriangle;
-    if (dirty_first_ > dirty_last_) {
-        dirty_first_ = slot;
-        dirty_last_ = slot;
-    } else {
-        dirty_first_ = std::min(dirty_first_, slot);
-        dirty_last_ = std::max(dirty_last_, slot);
+    if (cleared_)
+        return; // the whole list goes up anyway
+    const std::uint32_t page = slot / kSlotsPerPage;
+    if (page >= page_dirty_.size())
+        page_dirty_.resize(page + 1, 0);
+    if (page_dirty_[page] == 0) {
+        page_dirty_[page] = 1;
+        dirty_pages_.push_back(page);
     }
 }
 
@@ -129,40 +133,52 @@ bool TileMesh::remove(std::uint64_t key) {
     return true;
 }
 
-void TileMesh::compactIfSparse() {
-    if (free_slots_.size() * 4 <= keys_of_slots_.size() || keys_of_slots_.size() < 64)
-        return;
-    std::uint32_t out = 0;
-    for (std::uint32_t slot = 0; slot < slotCount(); ++slot) {
-        const std::uint64_t key = keys_of_slots_[slot];
-        if (key == kNoKey)
-            continue;
-        if (out != slot) {
-            keys_of_slots_[out] = key;
-            std::copy_n(
-                indices_.begin() + 3 * static_cast<std::ptrdiff_t>(slot), 3,
-                indices_.begin() + 3 * static_cast<std::ptrdiff_t>(out));
-            // the key's table entry moves with it
-            const std::size_t mask = table_keys_.size() - 1;
-            std::size_t i = hashKey(key) & mask;
-            while (table_keys_[i] != key)
-                i = (i + 1) & mask;
-            table_slots_[i] = out;
+void TileMesh::fillHoles() {
+    while (!free_slots_.empty()) {
+        // free slots at the end just go
+        while (!keys_of_slots_.empty() && keys_of_slots_.back() == kNoKey) {
+            keys_of_slots_.pop_back();
+            indices_.resize(indices_.size() - 3);
         }
-        ++out;
+        const std::uint32_t hole = free_slots_.back();
+        free_slots_.pop_back();
+        if (hole >= slotCount())
+            continue; // cut off with the end
+        // the last triangle moves into the hole: one slot written, its key follows it
+        const std::uint32_t last = slotCount() - 1;
+        const std::uint64_t key = keys_of_slots_[last];
+        const Indices moved = {indices_[3 * last], indices_[3 * last + 1], indices_[3 * last + 2]};
+        keys_of_slots_[hole] = key;
+        write(hole, moved);
+        const std::size_t mask = table_keys_.size() - 1;
+        std::size_t i = hashKey(key) & mask;
+        while (table_keys_[i] != key)
+            i = (i + 1) & mask;
+        table_slots_[i] = hole;
+        keys_of_slots_.pop_back();
+        indices_.resize(indices_.size() - 3);
     }
-    keys_of_slots_.resize(out);
-    indices_.resize(3 * static_cast<std::size_t>(out));
-    free_slots_.clear();
-    counters_.index_bytes_written += static_cast<std::uint64_t>(out) * kIndexBytesPerTriangle;
-    dirty_first_ = 0;
-    dirty_last_ = out == 0 ? 0 : out - 1;
-    ++counters_.rebuilds;
+}
+
+std::uint64_t TileMesh::dirtyUploadBytes() const {
+    const std::uint64_t list_bytes = std::uint64_t{slotCount()} * kIndexBytesPerTriangle;
+    if (cleared_)
+        return list_bytes;
+    std::uint64_t bytes = 0;
+    for (const std::uint32_t page : dirty_pages_) {
+        const std::uint64_t begin = std::uint64_t{page} * kSlotsPerPage * kIndexBytesPerTriangle;
+        if (begin < list_bytes)
+            bytes +=
+                std::min<std::uint64_t>(kSlotsPerPage * kIndexBytesPerTriangle, list_bytes - begin);
+    }
+    return bytes;
 }
 
 void TileMesh::takeChanges() {
-    dirty_first_ = 1;
-    dirty_last_ = 0;
+    for (const std::uint32_t page : dirty_pages_)
+        page_dirty_[page] = 0;
+    dirty_pages_.clear();
+    cleared_ = false;
 }
 
 } // namespace terrain::roam

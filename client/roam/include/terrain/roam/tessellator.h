@@ -50,7 +50,8 @@ struct TessellatorOptions {
     std::int64_t work_budget = 1'000'000;
     /// An eye jump longer than this rebuilds top-down; 0 means 8 tiles.
     double teleport_metres = 0.0;
-    /// View turn after which every merge candidate is re-checked against the frustum.
+    /// Merge candidates are re-checked against the frustum in rotation, all of them over this
+    /// much turning of the view: the longest a region stays split after it left the view.
     double cull_sweep_degrees = 4.0;
 };
 
@@ -241,7 +242,10 @@ class Tessellator {
     bool needs_rebuild_ = true;
     double travel_ = 0.0;
     glm::dvec3 last_eye_{0.0};
-    glm::dvec3 sweep_forward_{0.0};
+    glm::dvec3 last_forward_{0.0};
+    glm::dvec3 last_up_{0.0};
+    double sweep_credit_ = 0.0;
+    double sweep_phase_ = 0.0;
     std::int64_t triangles_ = 0;
     std::int64_t missing_block_refusals_ = 0;
 };

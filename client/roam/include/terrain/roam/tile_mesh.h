@@ -4,11 +4,12 @@
 // slots so that a split or merge rewrites three or six indices, not the whole list.
 //
 // A split replaces one triangle by two: the first child takes the parent's slot, the second the
-// most recently freed slot or a new one at the end. Freed slots hold a degenerate triangle
-// (0, 0, 0) until reused, so the list can be drawn as is; when more than a quarter of the slots
-// are free the list is compacted (one full rewrite). Every write is counted, and the range of
-// slots written since the renderer last took the tile is kept, so an index buffer is uploaded
-// only where it changed (glBufferSubData over that range).
+// most recently freed slot or a new one at the end. A slot freed during a frame holds a
+// degenerate triangle (0, 0, 0) until reused; at the end of the frame fillHoles() moves the last
+// triangles into the remaining holes, one slot write each, so the list the renderer sees is
+// dense. Every write is counted, and the pages of kSlotsPerPage slots written since the renderer
+// last took the tile are listed, so an index buffer is uploaded only where it changed
+// (glBufferSubData per run of dirty pages).
 // Allocation happens only when the list or its key table outgrows its capacity; a steady state
 // allocates nothing. Pure: no GL.
 
@@ -31,6 +32,7 @@ class TileMesh {
   public:
     using Indices = std::array<std::uint32_t, 3>;
     static constexpr std::uint32_t kIndexBytesPerTriangle = 3 * sizeof(std::uint32_t);
+    static constexpr std::uint32_t kSlotsPerPage = 32;
 
     /// Drops every triangle (a full rewrite follows).
     void clear();
@@ -38,23 +40,29 @@ class TileMesh {
     /// Frees the triangle's slot; false if the tile does not hold it.
     bool remove(std::uint64_t key);
     bool contains(std::uint64_t key) const { return find(key) != kEmpty; }
-    /// Rewrites the list without free slots when more than a quarter are free.
-    void compactIfSparse();
+    /// Moves the last triangles into the free slots and shortens the list (end of a frame).
+    void fillHoles();
 
-    /// Three indices per slot; free slots are (0, 0, 0).
+    /// Three indices per slot; a free slot (only between fillHoles() calls) is (0, 0, 0).
     std::span<const std::uint32_t> indices() const { return indices_; }
     std::uint32_t slotCount() const { return static_cast<std::uint32_t>(keys_of_slots_.size()); }
     std::uint32_t triangleCount() const { return live_; }
 
-    /// True once anything was written since takeChanges(); [first, last] is the slot range.
-    bool dirty() const { return dirty_first_ <= dirty_last_; }
-    std::uint32_t dirtyFirstSlot() const { return dirty_first_; }
-    std::uint32_t dirtyLastSlot() const { return dirty_last_; }
-    /// For the renderer, after uploading: forgets the changed range.
+    /// True once anything was written since takeChanges().
+    bool dirty() const { return !dirty_pages_.empty() || cleared_; }
+    /// The whole list was rewritten (rebuild): upload it all, and resize the buffer.
+    bool rewritten() const { return cleared_; }
+    /// Pages (of kSlotsPerPage slots) written since takeChanges(), in the order first written;
+    /// pages beyond slotCount() were cut off by fillHoles() and need no upload.
+    std::span<const std::uint32_t> dirtyPages() const { return dirty_pages_; }
+    /// Bytes a renderer uploads for the dirty pages (all of the list after a rewrite).
+    std::uint64_t dirtyUploadBytes() const;
+    /// For the renderer, after uploading: forgets the changes.
     void takeChanges();
 
     std::size_t memoryBytes() const {
         return indices_.capacity() * sizeof(std::uint32_t) +
+               dirty_pages_.capacity() * sizeof(std::uint32_t) + page_dirty_.capacity() +
                keys_of_slots_.capacity() * sizeof(std::uint64_t) +
                free_slots_.capacity() * sizeof(std::uint32_t) +
                table_keys_.capacity() * sizeof(std::uint64_t) +
@@ -83,8 +91,9 @@ class TileMesh {
     std::vector<std::uint32_t> table_slots_;
     std::uint32_t table_used_ = 0;
     std::uint32_t live_ = 0;
-    std::uint32_t dirty_first_ = 1;
-    std::uint32_t dirty_last_ = 0;
+    std::vector<std::uint32_t> dirty_pages_;
+    std::vector<std::uint8_t> page_dirty_;
+    bool cleared_ = false;
     TileCounters counters_;
 };
 
