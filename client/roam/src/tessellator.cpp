@@ -322,7 +322,9 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
         sweep_phase_ += 0.6180339887498949;
         sweep_phase_ -= std::floor(sweep_phase_);
         const HeapEntry e =
-            heap_[static_cast<std::size_t>(sweep_phase_ * static_cast<double>(heap_.size()))];
+            sweep == heap_.size() // a whole turn's worth: every entry once
+                ? heap_[k]
+                : heap_[static_cast<std::size_t>(sweep_phase_ * static_cast<double>(heap_.size()))];
         if ((state_[e.id] & kMergeCandidate) == 0 || e.key <= travel_)
             continue;
         const Box box = boxOf(diamondAt(pointOf(e.id)), e.id);
