@@ -29,11 +29,17 @@ ScreenErrorStats measureScreenError(
             if (indices[i] == 0 && indices[i + 1] == 0 && indices[i + 2] == 0)
                 continue; // a free slot
             std::array<glm::dvec3, 3> v{};
+            std::array<LatticePoint, 3> p{};
             for (std::size_t j = 0; j < 3; ++j) {
                 const TileVertex tv = tessellator.tileVertex(tile, indices[i + j]);
+                p[j] = tv.position;
                 v[j] = {
                     tv.position.x * mpl, tv.position.y * mpl, static_cast<double>(tv.height) * mpf};
             }
+            // the finest triangles have axis-aligned legs of one lattice unit
+            const bool finest = std::abs(p[1].x - p[0].x) + std::abs(p[1].y - p[0].y) <= 1 ||
+                                std::abs(p[2].x - p[1].x) + std::abs(p[2].y - p[1].y) <= 1;
+            double worst_here = 0.0;
             ++stats.triangles;
             const double edge = std::max(
                 {glm::length(v[1] - v[0]), glm::length(v[2] - v[1]), glm::length(v[0] - v[2])});
@@ -53,6 +59,7 @@ ScreenErrorStats measureScreenError(
                     if (!view.isVisible(sm) || !view.isVisible(st))
                         continue;
                     const double e = std::hypot(sm.x - st.x, sm.y - st.y);
+                    worst_here = std::max(worst_here, e);
                     ++stats.samples;
                     sum += e;
                     if (e > stats.max_pixels) {
@@ -61,6 +68,10 @@ ScreenErrorStats measureScreenError(
                     }
                 }
             }
+            if (!finest)
+                stats.max_pixels_above_finest = std::max(stats.max_pixels_above_finest, worst_here);
+            else if (worst_here > tessellator.options().tau_pixels)
+                ++stats.finest_triangles_over_tau_bound;
         }
     }
     stats.mean_pixels = stats.samples > 0 ? sum / static_cast<double>(stats.samples) : 0.0;

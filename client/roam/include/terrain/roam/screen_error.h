@@ -22,6 +22,11 @@ struct ScreenErrorOptions {
 
 struct ScreenErrorStats {
     double max_pixels = 0.0;
+    /// Over triangles coarser than the finest level only. The finest triangles (1/16 cell, the
+    /// patch grid) cannot be split further: where a patch's grid_error_bound seen from close by
+    /// exceeds tau, the model itself is too coarse, and only these are bound by tau.
+    double max_pixels_above_finest = 0.0;
+    std::int64_t finest_triangles_over_tau_bound = 0; ///< finest triangles with a sample > tau
     double mean_pixels = 0.0;
     std::int64_t samples = 0;   ///< sample points inside the viewport
     std::int64_t triangles = 0; ///< drawn triangles examined
