@@ -699,6 +699,29 @@ TEST(RoamMesh, TheTriangleCapHoldsWithoutCracks) {
         }
         EXPECT_GT(refused, 0);
     }
+    // under the cap split/merge spends the triangles where split-only (best-first) does
+    TessellatorOptions sm;
+    sm.tau_pixels = 0.25;
+    sm.max_triangles = 3000;
+    TessellatorOptions so = sm;
+    so.mode = TessellationMode::kSplitOnly;
+    Tessellator a(t, sm);
+    Tessellator b(t, so);
+    std::mt19937_64 rng(6);
+    const Camera start = randomCamera(t, rng);
+    Camera c = start;
+    a.update(c);
+    int rebuilt_at = -1;
+    for (int f = 1; f < 40 && rebuilt_at < 0; ++f) { // creep on: no teleport
+        c.eye += glm::dvec3(0.5, 0.3, 0.0);
+        if (a.update(c).rebuilt)
+            rebuilt_at = f;
+    }
+    EXPECT_GT(rebuilt_at, 0) << "the cap binds, so split/merge rebuilds best-first now and then";
+    EXPECT_LE(rebuilt_at, sm.capped_rebuild_frames + 1);
+    b.update(c);
+    EXPECT_EQ(leaves(a), leaves(b));
+    expectIndexListsMatchMesh(a);
 }
 
 TEST(RoamMesh, BudgetSpreadsWorkOverFramesAndConverges) {

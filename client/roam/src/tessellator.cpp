@@ -442,12 +442,18 @@ FrameStats Tessellator::update(const Camera& camera) {
         rebuildTopDown(m, stats);
         needs_rebuild_ = false;
         initialized_ = true;
+        frames_since_rebuild_ = 0;
         last_forward_ = glm::normalize(camera.forward);
         last_up_ = glm::normalize(camera.up);
         sweep_credit_ = 0.0;
     } else {
         travel_ += glm::length(camera.eye - last_eye_);
         updateSplitMerge(m, stats);
+        // at the cap, splits are refused in the order they come, not by need: now and then
+        // spend the cap again best-first, as a rebuild does, so the coarsening lands where the
+        // error matters least
+        if (stats.refused_by_cap > 0 && ++frames_since_rebuild_ >= options_.capped_rebuild_frames)
+            needs_rebuild_ = true;
     }
     last_eye_ = camera.eye;
     last_error_scale_ = m.errorScale();

@@ -20,8 +20,9 @@
 //    on the eye's position, not its direction; culling is re-checked by a sweep when the view
 //    turns), then merges (lowest first) and splits (highest first, forcing parents) run within a
 //    per-frame work budget; what is left is due next frame. A jump of the eye rebuilds top-down.
-// Splits that would exceed the triangle cap are refused (the mesh stays conforming, only coarser
-// where the priority is lowest).
+// Splits that would exceed the triangle cap are refused (the mesh stays conforming); a rebuild
+// under the cap refines best-first, so the mesh is coarser where the priority is lowest, and
+// split/merge repeats such a rebuild every capped_rebuild_frames frames while the cap binds.
 //
 // Output per tile: a TileMesh of indices into the tile's vertex array, which is the 65 x 65 base
 // grid followed by one 17 x 17 block per detail cell of the tile (tileVertex()).
@@ -46,6 +47,8 @@ struct TessellatorOptions {
     TessellationMode mode = TessellationMode::kSplitMerge;
     /// Triangle cap (the pool): splits beyond it are refused.
     std::int64_t max_triangles = 4'000'000;
+    /// While the cap refuses splits, kSplitMerge rebuilds best-first every this many frames.
+    std::int32_t capped_rebuild_frames = 15;
     /// Splits + merges per frame in kSplitMerge; the rest waits for the next frame.
     std::int64_t work_budget = 1'000'000;
     /// An eye jump longer than this rebuilds top-down; 0 means 8 tiles.
@@ -240,6 +243,7 @@ class Tessellator {
     bool refused_by_cap_ = false;
     bool initialized_ = false;
     bool needs_rebuild_ = true;
+    std::int32_t frames_since_rebuild_ = 0;
     double travel_ = 0.0;
     glm::dvec3 last_eye_{0.0};
     glm::dvec3 last_forward_{0.0};
