@@ -650,6 +650,93 @@ TEST(RoamStability, SpikyTerrainAndTauNearZero) {
     }
 }
 
+TEST(RoamMesh, APatchOnAnUnpaddedMapBorderIsRefinedLikeAnyOther) {
+    // 65 x 65: no padding, so diamonds on the last column belong to a virtual cell past the grid
+    Terrain t = makeHills(31, 65, 65);
+    OpRequest crater;
+    crater.x = 63.5;
+    crater.y = 32.0;
+    crater.radius = 2.0;
+    crater.height = 1.2;
+    auto op = quantizeOp(crater, t.spec());
+    ASSERT_TRUE(op.ok());
+    ASSERT_TRUE(t.apply(*op).ok());
+    ASSERT_NE(t.findPatch(63, 32), nullptr);
+    TessellatorOptions o;
+    o.tau_pixels = 0.5;
+    Tessellator tess(t, o);
+    EXPECT_GT(tess.deltaAt({64 * 16, 32 * 16 + 8}), 0.0) << "the border wedge has a bound";
+    const Camera c = lookAt(
+        glm::dvec3(61.0, 32.5, surfaceHeight(t, 61.0, 32.5) + 1.5),
+        glm::dvec3(64.0, 32.5, surfaceHeight(t, 64.0, 32.5)));
+    for (int i = 0; i < 2; ++i)
+        tess.update(c);
+    expectConforming(tess, t.spec());
+    expectIndexListsMatchMesh(tess);
+    // 1.5 m from a crater rim even the patch grid's own error shows (finest level, reported
+    // apart); everything the tessellator could still split is within tau
+    EXPECT_LE(roam::measureScreenError(tess, t, c).max_pixels_above_finest, o.tau_pixels);
+    EXPECT_EQ(tess.missingBlockRefusals(), 0);
+}
+
+TEST(RoamMesh, ADirtyRectCoveringTheWholeMapStillRequeuesCandidates) {
+    Terrain t = makeHills(32, 65, 65);
+    Tessellator tess(t, {});
+    const Camera c = lookAt(
+        glm::dvec3(26.0, 26.0, surfaceHeight(t, 32.0, 32.0) + 4.0),
+        glm::dvec3(32.0, 32.0, surfaceHeight(t, 32.0, 32.0)));
+    for (int i = 0; i < 3; ++i)
+        tess.update(c);
+    OpRequest crater;
+    crater.x = 32.0;
+    crater.y = 32.0;
+    crater.radius = 3.0;
+    crater.height = 1.5;
+    auto op = quantizeOp(crater, t.spec());
+    ASSERT_TRUE(op.ok());
+    ASSERT_TRUE(t.apply(*op).ok());
+    const CellRect everything{0, 0, 63, 63}; // a superset, as a coalesced dirty set may give
+    tess.terrainChanged(std::span<const CellRect>(&everything, 1), false);
+    for (int i = 0; i < 3; ++i)
+        tess.update(c);
+    Tessellator fresh(t, {});
+    fresh.update(c);
+    EXPECT_EQ(leaves(tess), leaves(fresh));
+    EXPECT_LE(roam::measureScreenError(tess, t, c).max_pixels, 1.0);
+}
+
+TEST(RoamMesh, VertexVersionsFollowBlockChangesWhileARebuildIsPending) {
+    Terrain t = makeHills(33, 257, 257);
+    Tessellator tess(t, {});
+    tess.update(overview(t, 60.0));
+    tess.setTau(0.9); // the next update rebuilds; ops meanwhile must still bump versions
+    std::vector<std::int32_t> count;
+    std::vector<std::uint32_t> version;
+    for (std::int32_t i = 0; i < tess.tileCount(); ++i) {
+        count.push_back(tess.tileVertexCount(i));
+        version.push_back(tess.tileVertexVersion(i));
+    }
+    // a small crater in the last column of tile 4, so the halo reaches into tile 5
+    OpRequest crater;
+    crater.x = 63.4;
+    crater.y = 100.0;
+    crater.radius = 0.6;
+    crater.height = 0.4;
+    auto op = quantizeOp(crater, t.spec());
+    ASSERT_TRUE(op.ok());
+    auto effect = t.apply(*op);
+    ASSERT_TRUE(effect.ok());
+    ASSERT_NE(t.findPatch(63, 100), nullptr);
+    tess.terrainChanged(std::span<const CellRect>(&effect->cells, 1), false);
+    int changed = 0;
+    for (std::int32_t i = 0; i < tess.tileCount(); ++i)
+        if (tess.tileVertexCount(i) != count[i]) {
+            ++changed;
+            EXPECT_NE(tess.tileVertexVersion(i), version[i]) << "tile " << i;
+        }
+    EXPECT_GE(changed, 2);
+}
+
 TEST(RoamMesh, ASteadyFrameAllocatesNothing) {
     const Terrain t = cratered(8, 30);
     Tessellator tess(t, {});

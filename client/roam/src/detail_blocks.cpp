@@ -16,8 +16,10 @@ std::int64_t exactBaseHeight(const CellCorners& c, Diagonal d, std::int32_t k, s
 } // namespace
 
 void DetailBlocks::reset(const Terrain& t) {
-    cells_x_ = t.spec().paddedWidth() - 1;
-    cells_y_ = t.spec().paddedHeight() - 1;
+    // one virtual column and row past the padded grid: a diamond on the map's last line belongs
+    // to the cell on its +x / +y side, so a patch on an unpadded border needs a block there
+    cells_x_ = t.spec().paddedWidth();
+    cells_y_ = t.spec().paddedHeight();
     block_of_cell_.assign(
         static_cast<std::size_t>(cells_x_) * static_cast<std::size_t>(cells_y_), -1);
     cell_of_block_.clear();
@@ -139,6 +141,16 @@ void DetailBlocks::release(std::int32_t block) {
 void DetailBlocks::fill(const Terrain& t, std::int32_t block) {
     const CellXY c = cell_of_block_[idx(block)];
     std::int64_t* out = heights_.data() + idx(block) * kBlockVertices;
+    const std::int32_t last_x = t.spec().paddedWidth() - 2; // last cell of the padded grid
+    const std::int32_t last_y = t.spec().paddedHeight() - 2;
+    if (c.x > last_x || c.y > last_y) {
+        // a virtual cell past the grid: it carries diamond state only; the tessellator takes
+        // heights on the map's last line from the real cell before it
+        std::fill(out, out + kBlockVertices, std::int64_t{0});
+        has_patch_[idx(block)] = 0;
+        finest_error_[idx(block)] = 0.0f;
+        return;
+    }
     const bool real = c.x < t.spec().cellsX() && c.y < t.spec().cellsY();
     const DetailPatch* patch = real ? t.findPatch(c.x, c.y) : nullptr;
     has_patch_[idx(block)] = patch != nullptr ? 1 : 0;

@@ -301,9 +301,10 @@ void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
 void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
     // merge candidates kept split because they were in view: their keys cover the eye moving
     // them out of the frustum (exitSlack) but not the view turning. So their culling is
-    // re-checked in rotation, as many per frame as the view turned: all of them over every
-    // cull_sweep_degrees of turning (a region stays split at most that long after it left the
-    // view), spread over the frames instead of in one burst.
+    // re-checked as the view turns: as many per frame as the heap holds times the turn over
+    // cull_sweep_degrees, sampled in a low-discrepancy order (about each one per that much
+    // turning, not exactly), or every one on a turn that large within a frame. This only
+    // delays merges of regions out of view; no needed split depends on it.
     const glm::dvec3 forward = glm::normalize(m.camera().forward);
     const glm::dvec3 up = glm::normalize(m.camera().up);
     const double turned = std::acos(std::clamp(glm::dot(forward, last_forward_), -1.0, 1.0)) +
@@ -311,7 +312,7 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
     last_forward_ = forward;
     last_up_ = up;
     sweep_credit_ += static_cast<double>(heap_.size()) * turned /
-                     (options_.cull_sweep_degrees * 3.14159265358979323846 / 180.0);
+                     (std::max(options_.cull_sweep_degrees, 0.01) * 3.14159265358979323846 / 180.0);
     const auto sweep =
         static_cast<std::size_t>(std::min(sweep_credit_, static_cast<double>(heap_.size())));
     sweep_credit_ = std::min(sweep_credit_ - static_cast<double>(sweep), 1.0);

@@ -2,6 +2,7 @@
 
 #include "tessellator_internal.h"
 
+#include <terrain/assert.h>
 #include <terrain/fixed_point.h>
 #include <terrain/roam/tessellator.h>
 
@@ -100,6 +101,16 @@ std::int64_t Tessellator::heightAt(LatticePoint p) const {
     std::int32_t cy = p.y / kLatticePerCell;
     std::int32_t k = p.x % kLatticePerCell;
     std::int32_t l = p.y % kLatticePerCell;
+    // a point on the map's last line belongs to the real cell before it (the virtual cells past
+    // the grid hold diamond state, not heights)
+    if (cx >= grid_w_ - 1) {
+        cx -= 1;
+        k += kLatticePerCell;
+    }
+    if (cy >= grid_h_ - 1) {
+        cy -= 1;
+        l += kLatticePerCell;
+    }
     if (const std::int32_t b = blocks_.blockOf(cx, cy); b >= 0)
         return blocks_.height(b, k, l);
     if (k == 0)
@@ -109,20 +120,14 @@ std::int64_t Tessellator::heightAt(LatticePoint p) const {
         if (const std::int32_t b = blocks_.blockOf(cx, cy - 1); b >= 0)
             return blocks_.height(b, k, kLatticePerCell);
     // a cell without a block: the base triangles, exact in fine units
-    if (cx >= blocks_.cellsX()) {
-        cx -= 1;
-        k += kLatticePerCell;
-    }
-    if (cy >= blocks_.cellsY()) {
-        cy -= 1;
-        l += kLatticePerCell;
-    }
     return baseHeightScaled(terrain_->corners(cx, cy), cellDiagonal(cx, cy), k, l, kLatticePerCell);
 }
 
 void Tessellator::resizeDiamondState() {
     const std::size_t n =
         grid_count_ + static_cast<std::size_t>(blocks_.capacity()) * kDiamondsPerBlock;
+    // ids are uint32 with kNoDiamond reserved: 16 M blocks on the largest map, far beyond memory
+    TERRAIN_ASSERT(n < kNoDiamond);
     delta_.resize(n, 0.0f);
     zlo_.resize(n, 0.0f);
     zhi_.resize(n, 0.0f);
@@ -199,7 +204,7 @@ void Tessellator::computeBounds(const Diamond& d, DiamondId id) {
 }
 
 void Tessellator::recomputeBounds(
-    std::int32_t lx0, std::int32_t ly0, std::int32_t lx1, std::int32_t ly1) {
+    std::int32_t lx0, std::int32_t ly0, std::int32_t lx1, std::int32_t ly1, bool collect) {
     const auto& positions = localPositionsByLevel();
     const bool whole = lx0 <= 0 && ly0 <= 0 && lx1 >= max_x_ && ly1 >= max_y_;
     for (int level = kMaxDiamondLevel; level >= kCellTriangleLevel; --level) {
@@ -217,7 +222,7 @@ void Tessellator::recomputeBounds(
                 const DiamondId id =
                     grid_count_ + static_cast<DiamondId>(block) * kDiamondsPerBlock + local;
                 computeBounds(diamondAt(p), id);
-                if (!whole)
+                if (collect)
                     recomputed_.push_back(id);
             }
         };
@@ -246,7 +251,7 @@ void Tessellator::recomputeBounds(
                     continue;
                 const DiamondId id = idOf(d.centre);
                 computeBounds(d, id);
-                if (!whole)
+                if (collect)
                     recomputed_.push_back(id);
             }
     }

@@ -3,6 +3,7 @@
 
 #include "tessellator_internal.h"
 
+#include <terrain/assert.h>
 #include <terrain/roam/tessellator.h>
 
 #include <algorithm>
@@ -76,8 +77,10 @@ void Tessellator::splitTriangles(const Diamond& d, bool split, bool forced) {
         const std::int32_t tile = tileOf(t);
         TileMesh& mesh = tiles_[idx(tile)];
         if (split) {
-            if (emitted(t))
-                mesh.remove(triangleKey(t));
+            if (emitted(t)) {
+                [[maybe_unused]] const bool held = mesh.remove(triangleKey(t));
+                TERRAIN_ASSERT(held); // every emitted leaf has a slot
+            }
             for (const Triangle& h : halves)
                 if (emitted(h))
                     mesh.add(triangleKey(h), indicesOf(h, tile));
@@ -86,10 +89,13 @@ void Tessellator::splitTriangles(const Diamond& d, bool split, bool forced) {
                 ++mesh.counters().forced_splits;
         } else {
             // second half first, so the parent takes back the first half's slot (its own)
-            if (emitted(halves[1]))
-                mesh.remove(triangleKey(halves[1]));
-            if (emitted(halves[0]))
-                mesh.remove(triangleKey(halves[0]));
+            for (const int i : {1, 0}) {
+                if (emitted(halves[static_cast<std::size_t>(i)])) {
+                    [[maybe_unused]] const bool held =
+                        mesh.remove(triangleKey(halves[static_cast<std::size_t>(i)]));
+                    TERRAIN_ASSERT(held);
+                }
+            }
             if (emitted(t))
                 mesh.add(triangleKey(t), indicesOf(t, tile));
             ++mesh.counters().merges;
@@ -289,7 +295,7 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
             rebuildTileBlocks(tile);
             ++vertex_version_[idx(tile)];
         }
-        recomputeBounds(0, 0, max_x_, max_y_);
+        recomputeBounds(0, 0, max_x_, max_y_, false);
         needs_rebuild_ = true;
         return;
     }
@@ -301,7 +307,9 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
         removing_.clear();
         changed_tiles_.clear();
         auto note_block_cell = [&](DetailBlocks::CellXY c) {
-            changed_tiles_.push_back((c.y / kTileCells) * spec_.tilesX() + c.x / kTileCells);
+            // virtual cells past the grid belong to no tile
+            if (c.x < spec_.tilesX() * kTileCells && c.y < spec_.tilesY() * kTileCells)
+                changed_tiles_.push_back((c.y / kTileCells) * spec_.tilesX() + c.x / kTileCells);
         };
         blocks_.plan(*terrain_, r, removing_);
         for (const std::int32_t block : removing_) {
@@ -336,23 +344,23 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
         std::sort(changed_tiles_.begin(), changed_tiles_.end());
         changed_tiles_.erase(
             std::unique(changed_tiles_.begin(), changed_tiles_.end()), changed_tiles_.end());
-        for (const std::int32_t tile : changed_tiles_)
+        for (const std::int32_t tile : changed_tiles_) {
             rebuildTileBlocks(tile);
+            ++vertex_version_[idx(tile)]; // new vertex array, whatever happens to the indices
+        }
         // heights moved in these tiles
-        for (std::int32_t ty = r.y0 / kTileCells;
-             ty <= std::min(r.y1, blocks_.cellsY() - 1) / kTileCells; ++ty)
-            for (std::int32_t tx = r.x0 / kTileCells;
-                 tx <= std::min(r.x1, blocks_.cellsX() - 1) / kTileCells; ++tx)
+        for (std::int32_t ty = std::max(0, r.y0) / kTileCells;
+             ty <= std::min(r.y1 / kTileCells, spec_.tilesY() - 1); ++ty)
+            for (std::int32_t tx = std::max(0, r.x0) / kTileCells;
+                 tx <= std::min(r.x1 / kTileCells, spec_.tilesX() - 1); ++tx)
                 ++vertex_version_[idx(ty * spec_.tilesX() + tx)];
         recomputed_.clear();
         recomputeBounds(
             (r.x0 - 1) * kLatticePerCell, (r.y0 - 1) * kLatticePerCell,
-            (r.x1 + 2) * kLatticePerCell, (r.y1 + 2) * kLatticePerCell);
+            (r.x1 + 2) * kLatticePerCell, (r.y1 + 2) * kLatticePerCell, true);
         if (initialized_ && !needs_rebuild_) {
-            for (const std::int32_t tile : changed_tiles_) {
-                ++vertex_version_[idx(tile)];
+            for (const std::int32_t tile : changed_tiles_)
                 emitTile(tile);
-            }
             for (const DiamondId id : recomputed_)
                 refreshCandidate(id);
         }

@@ -51,6 +51,8 @@ class DetailBlocks {
     /// The slots update() would free for the same change (the tessellator coarsens them first).
     void plan(const Terrain& t, CellRect cells, std::vector<std::int32_t>& removing) const;
 
+    /// Cells covered, one virtual column and row past the padded grid included (see reset());
+    /// a virtual cell's block holds no heights (zeros), only a place for diamond state.
     std::int32_t cellsX() const { return cells_x_; }
     std::int32_t cellsY() const { return cells_y_; }
     /// Block slot of a padded cell, or -1.

@@ -53,8 +53,9 @@ struct TessellatorOptions {
     std::int64_t work_budget = 1'000'000;
     /// An eye jump longer than this rebuilds top-down; 0 means 8 tiles.
     double teleport_metres = 0.0;
-    /// Merge candidates are re-checked against the frustum in rotation, all of them over this
-    /// much turning of the view: the longest a region stays split after it left the view.
+    /// Merge candidates' culling is re-checked as the view turns, about all of them per this
+    /// much turning (sampled in a low-discrepancy order, so not exactly each one), and every one
+    /// on a turn of this much in one frame. Out-of-view regions merge within about this turn.
     double cull_sweep_degrees = 4.0;
 };
 
@@ -117,6 +118,8 @@ class Tessellator {
     /// Diamonds split since construction that needed a block no cell had (must stay 0).
     std::int64_t missingBlockRefusals() const { return missing_block_refusals_; }
 
+    /// Height (fine units) of the vertex at `p` as the tessellator sees it (tests).
+    std::int64_t heightAtForTesting(LatticePoint p) const { return heightAt(p); }
     /// Error bound (metres) of the diamond centred at `p`; -1 if there is none (tests).
     double deltaAt(LatticePoint p) const;
     /// Metres per lattice unit and per height fine unit.
@@ -145,7 +148,10 @@ class Tessellator {
 
     // bounds
     void computeBounds(const Diamond& d, DiamondId id);
-    void recomputeBounds(std::int32_t lx0, std::int32_t ly0, std::int32_t lx1, std::int32_t ly1);
+    /// Bounds of every diamond whose subtree reaches the lattice rectangle, finest level first;
+    /// with `collect`, their ids go to recomputed_ (candidates to refresh).
+    void recomputeBounds(
+        std::int32_t lx0, std::int32_t ly0, std::int32_t lx1, std::int32_t ly1, bool collect);
     Box boxOf(const Diamond& d, DiamondId id) const;
     double priority(const ViewMetric& m, const Diamond& d, DiamondId id) const;
     double priorityAnyDirection(const ViewMetric& m, const Diamond& d, DiamondId id) const;
