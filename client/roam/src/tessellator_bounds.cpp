@@ -219,6 +219,8 @@ void Tessellator::recomputeBounds(
                 const LatticePoint p{
                     c.x * kLatticePerCell + local % kLatticePerCell,
                     c.y * kLatticePerCell + local / kLatticePerCell};
+                if (!insideMap(p))
+                    continue; // a virtual cell's diamonds past the map's last line
                 const DiamondId id =
                     grid_count_ + static_cast<DiamondId>(block) * kDiamondsPerBlock + local;
                 computeBounds(diamondAt(p), id);
