@@ -118,8 +118,6 @@ class Tessellator {
     /// Diamonds split since construction that needed a block no cell had (must stay 0).
     std::int64_t missingBlockRefusals() const { return missing_block_refusals_; }
 
-    /// Height (fine units) of the vertex at `p` as the tessellator sees it (tests).
-    std::int64_t heightAtForTesting(LatticePoint p) const { return heightAt(p); }
     /// Error bound (metres) of the diamond centred at `p`; -1 if there is none (tests).
     double deltaAt(LatticePoint p) const;
     /// Metres per lattice unit and per height fine unit.
