@@ -8,6 +8,7 @@
 // Writes one JSON file (--out) and prints a short table. Timings are measured, never asserted.
 // Exit status 1 when a replica ends different from the server or a phase hangs.
 
+#include "support/bench_facts.h"
 #include "support/loopback.h"
 
 #include <terrain/client/connection.h>
@@ -56,17 +57,19 @@
 namespace {
 
 using namespace terrain;
-using Clock = std::chrono::steady_clock;
+using bench::Clock;
+using bench::cpuModel;
+using bench::isoNow;
+using bench::mib;
+using bench::msSince;
+using bench::summarize;
+using bench::Summary;
 using server::Role;
 
 std::int64_t nowNs() {
     return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch())
         .count();
 }
-double msSince(Clock::time_point t) {
-    return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
-}
-
 // ---------------------------------------------------------------------------------------------
 // JSON output: nlohmann::ordered_json (keys keep insertion order) with two helpers
 
@@ -94,27 +97,6 @@ struct Json : nlohmann::ordered_json {
     }
 };
 
-struct Summary {
-    std::size_t n = 0;
-    double min = 0, p50 = 0, p99 = 0, max = 0, mean = 0;
-};
-Summary summarize(std::vector<double> v) {
-    Summary s;
-    s.n = v.size();
-    if (v.empty())
-        return s;
-    std::sort(v.begin(), v.end());
-    auto at = [&](double q) {
-        const auto i = static_cast<std::size_t>(q * static_cast<double>(v.size() - 1) + 0.5);
-        return v[std::min(i, v.size() - 1)];
-    };
-    s.min = v.front();
-    s.max = v.back();
-    s.p50 = at(0.5);
-    s.p99 = at(0.99);
-    s.mean = std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
-    return s;
-}
 Json toJson(const Summary& s) {
     Json j = Json::object();
     j.set("samples", static_cast<std::uint64_t>(s.n));
@@ -133,28 +115,6 @@ std::size_t rssBytes() {
             return static_cast<std::size_t>(std::stoull(line.substr(6))) * 1024;
     return 0;
 }
-std::string cpuModel() {
-    std::ifstream in("/proc/cpuinfo");
-    std::string line;
-    while (std::getline(in, line))
-        if (line.rfind("model name", 0) == 0) {
-            const auto colon = line.find(':');
-            return colon == std::string::npos ? line : line.substr(colon + 2);
-        }
-    return "unknown";
-}
-std::string isoNow() {
-    const std::time_t t = std::time(nullptr);
-    char buf[32];
-    std::tm tm{};
-    gmtime_r(&t, &tm);
-    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-    return buf;
-}
-double mib(std::size_t bytes) {
-    return static_cast<double>(bytes) / (1024.0 * 1024.0);
-}
-
 // ---------------------------------------------------------------------------------------------
 // tokens and threads: tests/support/loopback.h (shared with the loopback tests)
 

@@ -8,6 +8,8 @@
 // Exit status: 0 (also when the DEM is absent: a "skipped" JSON), 1 when a tessellator emitted no
 // triangles, 2 on a bad DEM or an unwritable output.
 
+#include "support/bench_facts.h"
+
 #include <terrain/io/dem_import.h>
 #include <terrain/op_script.h>
 #include <terrain/roam/camera.h>
@@ -44,36 +46,18 @@
 namespace {
 
 using namespace terrain;
-using Clock = std::chrono::steady_clock;
+using bench::Clock;
+using bench::cpuModel;
+using bench::isoNow;
+using bench::mib;
+using bench::msSince;
+using bench::summarize;
+using bench::Summary;
 using Json = nlohmann::ordered_json;
 using roam::TessellationMode;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
-
-double msSince(Clock::time_point t) {
-    return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
-}
-
-std::string isoNow() {
-    const std::time_t t = std::time(nullptr);
-    char buf[32];
-    std::tm tm{};
-    gmtime_r(&t, &tm);
-    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-    return buf;
-}
-
-std::string cpuModel() {
-    std::ifstream in("/proc/cpuinfo");
-    std::string line;
-    while (std::getline(in, line))
-        if (line.rfind("model name", 0) == 0) {
-            const auto colon = line.find(':');
-            return colon == std::string::npos ? line : line.substr(colon + 2);
-        }
-    return "unknown";
-}
 
 /// The 1-minute load average: on a small machine another process skews every timing.
 double loadAverage() {
@@ -83,39 +67,12 @@ double loadAverage() {
     return load;
 }
 
-double mib(std::size_t bytes) {
-    return static_cast<double>(bytes) / (1024.0 * 1024.0);
-}
-
 const char* modeName(TessellationMode m) {
     return m == TessellationMode::kSplitMerge ? "split_merge" : "split_only";
 }
 
 // ---------------------------------------------------------------------------------------------
 // order statistics (nearest rank, as net_bench)
-
-struct Summary {
-    std::size_t n = 0;
-    double min = 0, p50 = 0, p99 = 0, max = 0, mean = 0;
-};
-
-Summary summarize(std::vector<double> v) {
-    Summary s;
-    s.n = v.size();
-    if (v.empty())
-        return s;
-    std::sort(v.begin(), v.end());
-    auto at = [&](double q) {
-        const auto i = static_cast<std::size_t>(q * static_cast<double>(v.size() - 1) + 0.5);
-        return v[std::min(i, v.size() - 1)];
-    };
-    s.min = v.front();
-    s.max = v.back();
-    s.p50 = at(0.5);
-    s.p99 = at(0.99);
-    s.mean = std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
-    return s;
-}
 
 Json toJson(const Summary& s) {
     Json j = Json::object();

@@ -63,12 +63,6 @@ double ViewMetric::distanceTo(const Box& box) const {
     return glm::length(d);
 }
 
-double ViewMetric::screenErrorAnyDirection(const Box& box, double error_metres) const {
-    // visible points are at least the near plane away
-    const double d = std::max(distanceTo(box), camera_.near_plane);
-    return error_scale_ * error_metres / d;
-}
-
 double ViewMetric::screenError(const Box& box, double error_metres) const {
     if (!intersectsFrustum(box))
         return 0.0;

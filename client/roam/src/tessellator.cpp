@@ -133,11 +133,11 @@ void Tessellator::evaluate(const ViewMetric& m, DiamondId id, FrameStats& stats)
         return;
     }
     const double delta = delta_[id];
-    const double any = m.screenErrorAnyDirection(box, delta);
+    const double distance = m.distanceTo(box);
+    const double any = m.screenErrorAtDistance(distance, delta);
     const double p = any > tau && !m.intersectsFrustum(box) ? 0.0 : any;
     // distance at which the priority crosses tau; priorities depend on the eye position only
     const double threshold = m.errorScale() * delta / tau;
-    const double distance = m.distanceTo(box);
     if ((st & kSplitCandidate) != 0) {
         if (p > tau) {
             splits_.push_back({p, id});

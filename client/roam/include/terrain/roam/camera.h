@@ -54,7 +54,15 @@ class ViewMetric {
     /// `error_metres`, over the part of the box inside the frustum; 0 if none of it is inside.
     double screenError(const Box& box, double error_metres) const;
     /// The same bound ignoring the frustum (what the box would need if the camera turned to it).
-    double screenErrorAnyDirection(const Box& box, double error_metres) const;
+    double screenErrorAnyDirection(const Box& box, double error_metres) const {
+        return screenErrorAtDistance(distanceTo(box), error_metres);
+    }
+    /// The same for a box already known to be `distance` metres from the eye.
+    double screenErrorAtDistance(double distance, double error_metres) const {
+        // visible points are at least the near plane away
+        return error_scale_ * error_metres /
+               (distance > camera_.near_plane ? distance : camera_.near_plane);
+    }
     bool intersectsFrustum(const Box& box) const;
     /// How far the eye must move (metres, view direction fixed) before `box`, which intersects
     /// the frustum, can lie wholly outside it: the planes move with the eye.
