@@ -73,6 +73,10 @@ struct FrameStats {
     bool budget_exhausted = false;
 };
 
+/// A tile's vertex array: the (kTileCells + 1)^2 base grid first, row by row, then one
+/// kBlockSide^2 block per detail cell.
+inline constexpr std::int32_t kTileBaseVertices = (kTileCells + 1) * (kTileCells + 1);
+
 /// A tile vertex: lattice position (1/16 cell) and height in fine units (1/16 quantum).
 struct TileVertex {
     LatticePoint position;

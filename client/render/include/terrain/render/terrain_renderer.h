@@ -1,0 +1,120 @@
+#pragma once
+
+// Draws the tessellator's output. Per tile: a static vertex buffer (the tile's vertex array:
+// base grid + detail blocks, positions and normals), rebuilt only when the tile's vertex
+// version changes, and an index buffer into which only the dirty pages of the tile's index list
+// are copied (glBufferSubData per run of pages; the whole list after a rewrite or growth).
+// Every byte sent to the GL is counted. The renderer never decides level of detail: it draws
+// what roam::Tessellator chose, and clips triangles that reach into the map's padding.
+//
+// Positions are stored relative to each tile's corner and drawn relative to the eye, so floats
+// keep millimetres on maps tens of kilometres wide.
+
+#include <terrain/render/gl_context.h>
+#include <terrain/roam/camera.h>
+#include <terrain/roam/tessellator.h>
+#include <terrain/terrain.h>
+
+#include <glm/vec3.hpp>
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace terrain::render {
+
+enum class DrawMode { kShaded, kWireframe, kShadedWireframe };
+
+struct RenderOptions {
+    DrawMode mode = DrawMode::kShaded;
+    /// Towards the sun (need not be unit length). Low and from the side, so crater walls show.
+    glm::vec3 sun{-0.55f, -0.35f, 0.55f};
+    glm::vec3 sky{0.62f, 0.74f, 0.88f};
+    /// Distance (metres) at which haze has covered 63 % of the colour; 0 disables haze.
+    float haze_metres = 0.0f;
+};
+
+/// What one sync() sent to the GL.
+struct UploadStats {
+    std::uint64_t vertex_bytes = 0;
+    std::uint64_t index_bytes = 0;
+    std::uint32_t vertex_tiles = 0;  ///< tiles whose vertex buffer was rebuilt
+    std::uint32_t index_tiles = 0;   ///< tiles whose index buffer was written
+    std::uint32_t index_uploads = 0; ///< glBufferData/glBufferSubData calls for indices
+    std::uint64_t bytes() const { return vertex_bytes + index_bytes; }
+};
+
+struct DrawStats {
+    std::uint32_t tiles = 0;
+    std::uint64_t triangles = 0;
+};
+
+class TerrainRenderer {
+  public:
+    /// Compiles the shaders in `context` (current on this thread). Errors: kUnsupported with the
+    /// compiler's log.
+    static Result<std::unique_ptr<TerrainRenderer>> create(const GlContext& context);
+    ~TerrainRenderer();
+    TerrainRenderer(const TerrainRenderer&) = delete;
+    TerrainRenderer& operator=(const TerrainRenderer&) = delete;
+
+    /// Brings the GPU buffers up to date with `tess` (after its update()) and takes its changes.
+    /// `terrain` is the surface `tess` was built on (normals come from it).
+    UploadStats sync(roam::Tessellator& tess, const Terrain& terrain);
+    /// Clears to the sky and draws the visible tiles as seen by `camera` into the whole
+    /// framebuffer.
+    DrawStats
+    draw(const roam::Tessellator& tess, const roam::Camera& camera, const RenderOptions& options);
+
+    /// Totals since creation.
+    const UploadStats& totals() const { return totals_; }
+    /// Bytes held in GL buffers now.
+    std::uint64_t gpuBytes() const;
+
+  private:
+    struct TileBuffers {
+        unsigned vao = 0;
+        unsigned vertex_buffer = 0;
+        unsigned index_buffer = 0;
+        std::uint32_t vertex_version = 0;
+        bool has_vertices = false;
+        std::uint64_t vertex_bytes = 0;
+        std::uint32_t index_capacity_slots = 0;
+        std::uint32_t triangles = 0;
+    };
+
+    explicit TerrainRenderer(const GlContext& context);
+    void releaseTiles();
+    void uploadVertices(
+        roam::Tessellator& tess,
+        const Terrain& terrain,
+        std::int32_t tile,
+        TileBuffers& tb,
+        UploadStats& stats);
+    void uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, UploadStats& stats);
+    void drawTiles(const roam::Tessellator& tess, const roam::Camera& camera, DrawStats& stats);
+
+    const GlContext& context_;
+    const GlApi& gl_;
+    unsigned program_ = 0;
+    int u_view_projection_ = -1;
+    int u_tile_from_eye_ = -1;
+    int u_clip_ = -1;
+    int u_sun_ = -1;
+    int u_sky_ = -1;
+    int u_haze_ = -1;
+    int u_height_range_ = -1;
+    int u_line_colour_ = -1;
+
+    std::vector<TileBuffers> tiles_;
+    WorldSpec spec_{};
+    bool have_spec_ = false;
+    float height_lo_ = 0.0f;
+    float height_hi_ = 0.0f;
+    bool height_range_fixed_ = false;
+    std::vector<float> scratch_vertices_;
+    std::vector<std::uint32_t> scratch_pages_;
+    UploadStats totals_;
+};
+
+} // namespace terrain::render

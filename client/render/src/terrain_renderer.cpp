@@ -1,0 +1,313 @@
+#include "shader_program.h"
+#include "terrain_shaders.h"
+
+#include <terrain/render/terrain_renderer.h>
+#include <terrain/surface_query.h>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <glm/mat4x4.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace terrain::render {
+
+namespace {
+constexpr std::size_t kFloatsPerVertex = 6; // position, normal
+constexpr GLsizei kVertexStride = static_cast<GLsizei>(kFloatsPerVertex * sizeof(float));
+constexpr std::uint32_t kIndexBytesPerSlot = roam::TileMesh::kIndexBytesPerTriangle;
+
+const void* byteOffset(std::size_t bytes) {
+    return reinterpret_cast<const void*>(bytes); // GL's buffer offsets are pointers by API
+}
+
+GLsizeiptr sizeOf(std::uint64_t bytes) {
+    return static_cast<GLsizeiptr>(bytes);
+}
+} // namespace
+
+Result<std::unique_ptr<TerrainRenderer>> TerrainRenderer::create(const GlContext& context) {
+    std::unique_ptr<TerrainRenderer> r(new TerrainRenderer(context));
+    Result<unsigned> program = buildProgram(r->gl_, kTerrainVertexShader, kTerrainFragmentShader);
+    if (!program)
+        return program.error();
+    r->program_ = *program;
+    const GlApi& gl = r->gl_;
+    r->u_view_projection_ = gl.GetUniformLocation(r->program_, "u_view_projection");
+    r->u_tile_from_eye_ = gl.GetUniformLocation(r->program_, "u_tile_from_eye");
+    r->u_clip_ = gl.GetUniformLocation(r->program_, "u_clip");
+    r->u_sun_ = gl.GetUniformLocation(r->program_, "u_sun");
+    r->u_sky_ = gl.GetUniformLocation(r->program_, "u_sky");
+    r->u_haze_ = gl.GetUniformLocation(r->program_, "u_haze");
+    r->u_height_range_ = gl.GetUniformLocation(r->program_, "u_height_range");
+    r->u_line_colour_ = gl.GetUniformLocation(r->program_, "u_line_colour");
+    return r;
+}
+
+TerrainRenderer::TerrainRenderer(const GlContext& context) : context_(context), gl_(context.gl()) {}
+
+TerrainRenderer::~TerrainRenderer() {
+    releaseTiles();
+    if (program_ != 0)
+        gl_.DeleteProgram(program_);
+}
+
+void TerrainRenderer::releaseTiles() {
+    for (TileBuffers& tb : tiles_) {
+        gl_.DeleteVertexArrays(1, &tb.vao);
+        gl_.DeleteBuffers(1, &tb.vertex_buffer);
+        gl_.DeleteBuffers(1, &tb.index_buffer);
+    }
+    tiles_.clear();
+}
+
+std::uint64_t TerrainRenderer::gpuBytes() const {
+    std::uint64_t bytes = 0;
+    for (const TileBuffers& tb : tiles_)
+        bytes += tb.vertex_bytes + std::uint64_t{tb.index_capacity_slots} * kIndexBytesPerSlot;
+    return bytes;
+}
+
+UploadStats TerrainRenderer::sync(roam::Tessellator& tess, const Terrain& terrain) {
+    UploadStats stats;
+    if (!have_spec_ || !(terrain.spec() == spec_) ||
+        tiles_.size() != static_cast<std::size_t>(tess.tileCount())) {
+        // a new world: every buffer is rebuilt
+        releaseTiles();
+        spec_ = terrain.spec();
+        have_spec_ = true;
+        height_lo_ = std::numeric_limits<float>::max();
+        height_hi_ = std::numeric_limits<float>::lowest();
+        height_range_fixed_ = false;
+        tiles_.resize(static_cast<std::size_t>(tess.tileCount()));
+        for (TileBuffers& tb : tiles_) {
+            gl_.GenVertexArrays(1, &tb.vao);
+            gl_.GenBuffers(1, &tb.vertex_buffer);
+            gl_.GenBuffers(1, &tb.index_buffer);
+            gl_.BindVertexArray(tb.vao);
+            gl_.BindBuffer(GL_ARRAY_BUFFER, tb.vertex_buffer);
+            gl_.EnableVertexAttribArray(0);
+            gl_.VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, kVertexStride, byteOffset(0));
+            gl_.EnableVertexAttribArray(1);
+            gl_.VertexAttribPointer(
+                1, 3, GL_FLOAT, GL_FALSE, kVertexStride, byteOffset(3 * sizeof(float)));
+            gl_.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, tb.index_buffer); // recorded in the VAO
+        }
+        gl_.BindVertexArray(0);
+    }
+    for (std::int32_t t = 0; t < tess.tileCount(); ++t) {
+        TileBuffers& tb = tiles_[static_cast<std::size_t>(t)];
+        if (!tb.has_vertices || tb.vertex_version != tess.tileVertexVersion(t))
+            uploadVertices(tess, terrain, t, tb, stats);
+        roam::TileMesh& mesh = tess.tileMesh(t);
+        if (mesh.dirty())
+            uploadIndices(mesh, tb, stats);
+        tb.triangles = mesh.triangleCount();
+    }
+    gl_.BindVertexArray(0);
+    // colours follow the world's first heights: a crater must not recolour the whole map
+    height_range_fixed_ = true;
+    totals_.vertex_bytes += stats.vertex_bytes;
+    totals_.index_bytes += stats.index_bytes;
+    totals_.vertex_tiles += stats.vertex_tiles;
+    totals_.index_tiles += stats.index_tiles;
+    totals_.index_uploads += stats.index_uploads;
+    return stats;
+}
+
+void TerrainRenderer::uploadVertices(
+    roam::Tessellator& tess,
+    const Terrain& terrain,
+    std::int32_t tile,
+    TileBuffers& tb,
+    UploadStats& stats) {
+    const double spacing = spec_.spacingMetres();
+    const double per_lattice = tess.metresPerLattice();
+    const double per_fine = tess.metresPerFineUnit();
+    const double corner_x = (tile % spec_.tilesX()) * kTileCells * spacing;
+    const double corner_y = (tile / spec_.tilesX()) * kTileCells * spacing;
+    const auto count = static_cast<std::uint32_t>(tess.tileVertexCount(tile));
+    scratch_vertices_.resize(std::size_t{count} * kFloatsPerVertex);
+    float* out = scratch_vertices_.data();
+    for (std::uint32_t i = 0; i < count; ++i) {
+        const roam::TileVertex v = tess.tileVertex(tile, i);
+        const double x = v.position.x * per_lattice;
+        const double y = v.position.y * per_lattice;
+        const double z = static_cast<double>(v.height) * per_fine;
+        // a smooth normal from the true surface: central differences over the vertex's own
+        // grid step (a cell on the base grid, a lattice step inside a detail block)
+        const bool on_base_grid = i < static_cast<std::uint32_t>(roam::kTileBaseVertices);
+        const double step = on_base_grid ? spacing : per_lattice;
+        const double dzdx =
+            (surfaceHeight(terrain, x + step, y) - surfaceHeight(terrain, x - step, y)) /
+            (2.0 * step);
+        const double dzdy =
+            (surfaceHeight(terrain, x, y + step) - surfaceHeight(terrain, x, y - step)) /
+            (2.0 * step);
+        const double inv = 1.0 / std::sqrt(dzdx * dzdx + dzdy * dzdy + 1.0);
+        out[0] = static_cast<float>(x - corner_x);
+        out[1] = static_cast<float>(y - corner_y);
+        out[2] = static_cast<float>(z);
+        out[3] = static_cast<float>(-dzdx * inv);
+        out[4] = static_cast<float>(-dzdy * inv);
+        out[5] = static_cast<float>(inv);
+        if (!height_range_fixed_) {
+            height_lo_ = std::min(height_lo_, out[2]);
+            height_hi_ = std::max(height_hi_, out[2]);
+        }
+        out += kFloatsPerVertex;
+    }
+    const std::uint64_t bytes = std::uint64_t{count} * kFloatsPerVertex * sizeof(float);
+    gl_.BindVertexArray(0);
+    gl_.BindBuffer(GL_ARRAY_BUFFER, tb.vertex_buffer);
+    gl_.BufferData(GL_ARRAY_BUFFER, sizeOf(bytes), scratch_vertices_.data(), GL_STATIC_DRAW);
+    tb.vertex_bytes = bytes;
+    tb.vertex_version = tess.tileVertexVersion(tile);
+    tb.has_vertices = true;
+    stats.vertex_bytes += bytes;
+    ++stats.vertex_tiles;
+}
+
+void TerrainRenderer::uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, UploadStats& stats) {
+    const std::uint32_t slots = mesh.slotCount();
+    const std::uint32_t* indices = mesh.indices().data();
+    // the element buffer binding belongs to the VAO
+    gl_.BindVertexArray(tb.vao);
+    std::uint64_t bytes = 0;
+    if (mesh.rewritten() || slots > tb.index_capacity_slots) {
+        // grow by half again so a growing list is not reallocated every frame
+        const std::uint32_t capacity =
+            std::max({slots, tb.index_capacity_slots + tb.index_capacity_slots / 2, 64u});
+        if (capacity != tb.index_capacity_slots) {
+            gl_.BufferData(
+                GL_ELEMENT_ARRAY_BUFFER, sizeOf(std::uint64_t{capacity} * kIndexBytesPerSlot),
+                nullptr, GL_DYNAMIC_DRAW);
+            tb.index_capacity_slots = capacity;
+            ++stats.index_uploads;
+        }
+        bytes = std::uint64_t{slots} * kIndexBytesPerSlot;
+        if (slots > 0) {
+            gl_.BufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, sizeOf(bytes), indices);
+            ++stats.index_uploads;
+        }
+    } else {
+        // runs of consecutive dirty pages, each one glBufferSubData
+        scratch_pages_.assign(mesh.dirtyPages().begin(), mesh.dirtyPages().end());
+        std::sort(scratch_pages_.begin(), scratch_pages_.end());
+        constexpr std::uint32_t kPage = roam::TileMesh::kSlotsPerPage;
+        std::size_t k = 0;
+        while (k < scratch_pages_.size()) {
+            std::size_t end = k + 1;
+            while (end < scratch_pages_.size() &&
+                   scratch_pages_[end] == scratch_pages_[end - 1] + 1)
+                ++end;
+            const std::uint32_t first = scratch_pages_[k] * kPage;
+            const std::uint32_t last = std::min(slots, (scratch_pages_[end - 1] + 1) * kPage);
+            if (first < last) {
+                const std::uint64_t run = std::uint64_t{last - first} * kIndexBytesPerSlot;
+                gl_.BufferSubData(
+                    GL_ELEMENT_ARRAY_BUFFER,
+                    static_cast<GLintptr>(std::uint64_t{first} * kIndexBytesPerSlot), sizeOf(run),
+                    indices + std::size_t{first} * 3);
+                bytes += run;
+                ++stats.index_uploads;
+            }
+            k = end;
+        }
+    }
+    mesh.takeChanges();
+    stats.index_bytes += bytes;
+    ++stats.index_tiles;
+}
+
+DrawStats TerrainRenderer::draw(
+    const roam::Tessellator& tess, const roam::Camera& camera, const RenderOptions& options) {
+    DrawStats stats;
+    const GlApi& gl = gl_;
+    gl.Viewport(0, 0, context_.width(), context_.height());
+    gl.ClearColor(options.sky.x, options.sky.y, options.sky.z, 1.0f);
+    gl.Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    if (tiles_.empty())
+        return stats;
+    gl.Enable(GL_DEPTH_TEST);
+    gl.DepthFunc(GL_LEQUAL);
+    for (GLenum plane = 0; plane < 4; ++plane)
+        gl.Enable(GL_CLIP_DISTANCE0 + plane);
+    gl.UseProgram(program_);
+
+    // eye at the origin: the view matrix is a rotation, positions arrive eye-relative
+    const glm::dvec3 forward = glm::normalize(camera.forward);
+    const glm::mat4 view = glm::lookAt(glm::vec3(0.0f), glm::vec3(forward), glm::vec3(camera.up));
+    const double diagonal = std::hypot(spec_.extentX(), spec_.extentY());
+    const double reach =
+        diagonal + std::abs(camera.eye.z) + std::max(std::abs(height_lo_), std::abs(height_hi_));
+    const float aspect = static_cast<float>(camera.viewport_width) /
+                         static_cast<float>(std::max(camera.viewport_height, 1));
+    const glm::mat4 projection = glm::perspective(
+        static_cast<float>(camera.fovy_radians), aspect, static_cast<float>(camera.near_plane),
+        static_cast<float>(reach * 1.5 + 1.0));
+    const glm::mat4 view_projection = projection * view;
+    gl.UniformMatrix4fv(u_view_projection_, 1, GL_FALSE, glm::value_ptr(view_projection));
+    const glm::vec3 sun = glm::normalize(options.sun);
+    gl.Uniform3f(u_sun_, sun.x, sun.y, sun.z);
+    gl.Uniform3f(u_sky_, options.sky.x, options.sky.y, options.sky.z);
+    gl.Uniform1f(u_haze_, options.haze_metres > 0.0f ? 1.0f / options.haze_metres : 0.0f);
+    gl.Uniform2f(u_height_range_, height_lo_, height_hi_);
+
+    if (options.mode == DrawMode::kWireframe) {
+        gl.PolygonMode(GL_FRONT_AND_BACK, GL_LINE);
+        gl.Uniform4f(u_line_colour_, 0.0f, 0.0f, 0.0f, 0.0f);
+        drawTiles(tess, camera, stats);
+    } else {
+        gl.PolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+        gl.Uniform4f(u_line_colour_, 0.0f, 0.0f, 0.0f, 0.0f);
+        if (options.mode == DrawMode::kShadedWireframe) {
+            // push the fill back so the lines drawn over it win the depth test
+            gl.Enable(GL_POLYGON_OFFSET_FILL);
+            gl.PolygonOffset(1.0f, 1.0f);
+        }
+        drawTiles(tess, camera, stats);
+        if (options.mode == DrawMode::kShadedWireframe) {
+            gl.Disable(GL_POLYGON_OFFSET_FILL);
+            gl.PolygonMode(GL_FRONT_AND_BACK, GL_LINE);
+            gl.Uniform4f(u_line_colour_, 0.05f, 0.05f, 0.08f, 0.6f);
+            DrawStats lines;
+            drawTiles(tess, camera, lines);
+        }
+    }
+    gl.PolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+    for (GLenum plane = 0; plane < 4; ++plane)
+        gl.Disable(GL_CLIP_DISTANCE0 + plane);
+    gl.BindVertexArray(0);
+    gl.UseProgram(0);
+    return stats;
+}
+
+void TerrainRenderer::drawTiles(
+    const roam::Tessellator& tess, const roam::Camera& camera, DrawStats& stats) {
+    const double spacing = spec_.spacingMetres();
+    const double tile_metres = kTileCells * spacing;
+    for (std::int32_t t = 0; t < tess.tileCount(); ++t) {
+        const TileBuffers& tb = tiles_[static_cast<std::size_t>(t)];
+        if (tb.triangles == 0 || !tess.tileVisible(t))
+            continue;
+        const double corner_x = (t % spec_.tilesX()) * tile_metres;
+        const double corner_y = (t / spec_.tilesX()) * tile_metres;
+        gl_.Uniform3f(
+            u_tile_from_eye_, static_cast<float>(corner_x - camera.eye.x),
+            static_cast<float>(corner_y - camera.eye.y), static_cast<float>(-camera.eye.z));
+        gl_.Uniform4f(
+            u_clip_, static_cast<float>(-corner_x), static_cast<float>(-corner_y),
+            static_cast<float>(spec_.extentX() - corner_x),
+            static_cast<float>(spec_.extentY() - corner_y));
+        gl_.BindVertexArray(tb.vao);
+        gl_.DrawElements(
+            GL_TRIANGLES, static_cast<GLsizei>(tb.triangles * 3), GL_UNSIGNED_INT, nullptr);
+        ++stats.tiles;
+        stats.triangles += tb.triangles;
+    }
+}
+
+} // namespace terrain::render

@@ -1,0 +1,243 @@
+// The renderer on OSMesa (llvmpipe): a crater shows where it was made and nowhere else, the
+// ROAM mesh at tau = 1 px looks like the full-resolution mesh, and buffers are uploaded only
+// where the tessellation changed.
+
+#include "support/image_checks.h"
+#include "support/terrain_builders.h"
+
+#include <terrain/render/osmesa_context.h>
+#include <terrain/render/terrain_renderer.h>
+#include <terrain/roam/tessellator.h>
+#include <terrain/surface_query.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+namespace terrain {
+namespace {
+
+using testing::countDiffering;
+using testing::distinctColours;
+
+constexpr int kWidth = 480;
+constexpr int kHeight = 320;
+
+std::filesystem::path outputDir() {
+    const auto dir = std::filesystem::path(TERRAIN_TEST_OUTPUT_DIR) / "render";
+    std::filesystem::create_directories(dir);
+    return dir;
+}
+
+roam::Camera lookAt(glm::dvec3 eye, glm::dvec3 target) {
+    roam::Camera c;
+    c.eye = eye;
+    c.forward = target - eye;
+    c.viewport_width = kWidth;
+    c.viewport_height = kHeight;
+    c.near_plane = 0.5;
+    return c;
+}
+
+/// One offscreen context, renderer and tessellator over `terrain`.
+struct Scene {
+    std::unique_ptr<render::OsmesaContext> context;
+    std::unique_ptr<render::TerrainRenderer> renderer;
+    std::unique_ptr<roam::Tessellator> tess;
+    const Terrain* terrain = nullptr;
+
+    Scene(const Terrain& t, double tau) : terrain(&t) {
+        auto c = render::OsmesaContext::create(kWidth, kHeight);
+        if (!c.ok()) {
+            ADD_FAILURE() << c.error().message;
+            return;
+        }
+        context = std::move(*c);
+        auto r = render::TerrainRenderer::create(*context);
+        if (!r.ok()) {
+            ADD_FAILURE() << r.error().message;
+            return;
+        }
+        renderer = std::move(*r);
+        roam::TessellatorOptions o;
+        o.tau_pixels = tau;
+        o.work_budget = 1 << 30;
+        tess = std::make_unique<roam::Tessellator>(t, o);
+    }
+    bool ok() const { return renderer != nullptr; }
+
+    io::RgbImage frame(
+        const roam::Camera& camera,
+        render::UploadStats* uploads = nullptr,
+        render::DrawMode mode = render::DrawMode::kShaded) {
+        tess->update(camera);
+        const render::UploadStats u = renderer->sync(*tess, *terrain);
+        if (uploads != nullptr)
+            *uploads = u;
+        render::RenderOptions options;
+        options.mode = mode;
+        renderer->draw(*tess, camera, options);
+        return context->readPixels();
+    }
+};
+
+Terrain craterWorld() {
+    Terrain t = testing::makeHills(11, 257, 257, 1.0);
+    return t;
+}
+
+OpEffect blast(Terrain& t, double x, double y, double radius, double depth) {
+    OpRequest r;
+    r.kind = OpKind::kCrater;
+    r.x = x;
+    r.y = y;
+    r.radius = radius;
+    r.height = depth;
+    r.strength = 0.3;
+    auto op = quantizeOp(r, t.spec());
+    EXPECT_TRUE(op.ok());
+    auto effect = t.apply(*op);
+    EXPECT_TRUE(effect.ok());
+    return *effect;
+}
+
+TEST(OsmesaRender, ACraterChangesThePixelsWhereItIsAndNoOthers) {
+    Terrain t = craterWorld();
+    Scene scene(t, 1.0);
+    ASSERT_TRUE(scene.ok());
+    const glm::dvec3 centre(128.0, 128.0, surfaceHeight(t, 128.0, 128.0));
+    const roam::Camera camera = lookAt(centre + glm::dvec3(-45.0, -32.0, 40.0), centre);
+
+    const io::RgbImage before = scene.frame(camera);
+    const OpEffect effect = blast(t, centre.x, centre.y, 12.0, 5.0);
+    scene.tess->terrainChanged(std::span<const CellRect>(&effect.cells, 1), false);
+    const io::RgbImage after = scene.frame(camera);
+    ASSERT_TRUE(io::writeRgbPng(outputDir() / "crater_before.png", before).ok());
+    ASSERT_TRUE(io::writeRgbPng(outputDir() / "crater_after.png", after).ok());
+
+    // a real picture: terrain colours, not one flat fill
+    EXPECT_GT(distinctColours(before), 2000);
+
+    // where the crater projects: inside its radius, outside its reach (ejecta: 2 radii)
+    const roam::ViewMetric view(camera);
+    // the screen ellipse of a horizontal circle around the crater (its projected extent)
+    const auto projectedWithin = [&](double metres) {
+        const roam::ScreenPoint c = view.project(centre);
+        double rx = 0.0;
+        double ry = 0.0;
+        for (int k = 0; k < 64; ++k) {
+            const double a = k * 2.0 * 3.14159265358979 / 64.0;
+            const roam::ScreenPoint s =
+                view.project(centre + glm::dvec3(metres * std::cos(a), metres * std::sin(a), 0.0));
+            rx = std::max(rx, std::abs(s.x - c.x));
+            ry = std::max(ry, std::abs(s.y - c.y));
+        }
+        return [c, rx, ry](int px, int py) {
+            const double dx = (px + 0.5 - c.x) / rx;
+            const double dy = (py + 0.5 - c.y) / ry;
+            return dx * dx + dy * dy <= 1.0;
+        };
+    };
+    const auto inner = projectedWithin(8.0);
+    const auto reach = projectedWithin(2.0 * 12.0 + 4.0);
+    const testing::PixelCount inside = countDiffering(before, after, 16, inner);
+    const testing::PixelCount outside =
+        countDiffering(before, after, 4, [&](int x, int y) { return !reach(x, y); });
+    std::printf(
+        "crater: %lld of %lld pixels inside changed, %lld of %lld outside\n",
+        static_cast<long long>(inside.differing), static_cast<long long>(inside.counted),
+        static_cast<long long>(outside.differing), static_cast<long long>(outside.counted));
+    EXPECT_GT(inside.counted, 500);
+    EXPECT_GT(inside.fraction(), 0.6);
+    EXPECT_GT(outside.counted, kWidth * kHeight / 2);
+    EXPECT_LT(outside.fraction(), 0.002);
+}
+
+} // namespace
+} // namespace terrain
+
+namespace terrain {
+namespace {
+
+// The image error of view-dependent LOD: the ROAM mesh at tau = 1 px against every triangle of
+// the model (the tessellator refined to its finest level everywhere), same shading, same
+// normals. Differences are confined to silhouettes and shading of merged triangles.
+TEST(OsmesaRender, RoamAtOnePixelLooksLikeTheFullResolutionMesh) {
+    Terrain t = testing::makeHills(4, 257, 257, 1.0);
+    for (int k = 0; k < 12; ++k)
+        blast(t, 40.0 + 15.0 * k, 60.0 + 11.0 * k, 3.0 + k, 1.0 + 0.4 * k);
+    Scene roam1(t, 1.0);
+    Scene full(t, 1e-4);
+    ASSERT_TRUE(roam1.ok() && full.ok());
+    const std::vector<roam::Camera> views = {
+        lookAt({-20.0, -20.0, 70.0}, {128.0, 128.0, 30.0}),
+        lookAt({100.0, 40.0, 55.0}, {150.0, 150.0, 35.0}),
+        lookAt({230.0, 30.0, 90.0}, {60.0, 200.0, 20.0}),
+    };
+    testing::PixelCount total;
+    std::int64_t roam_triangles = 0;
+    std::int64_t full_triangles = 0;
+    for (std::size_t v = 0; v < views.size(); ++v) {
+        const io::RgbImage a = roam1.frame(views[v]);
+        const io::RgbImage b = full.frame(views[v]);
+        roam_triangles += roam1.tess->triangleCount();
+        full_triangles += full.tess->triangleCount();
+        const testing::PixelCount n = countDiffering(a, b, 16);
+        std::printf(
+            "view %zu: %.3f %% of pixels differ by more than 16/255 (ROAM %lld triangles, "
+            "full %lld)\n",
+            v, 100.0 * n.fraction(), static_cast<long long>(roam1.tess->triangleCount()),
+            static_cast<long long>(full.tess->triangleCount()));
+        if (v == 0) {
+            ASSERT_TRUE(io::writeRgbPng(outputDir() / "tau1.png", a).ok());
+            ASSERT_TRUE(io::writeRgbPng(outputDir() / "full_resolution.png", b).ok());
+        }
+        total.counted += n.counted;
+        total.differing += n.differing;
+    }
+    ::testing::Test::RecordProperty("differing_percent", std::to_string(100.0 * total.fraction()));
+    std::printf(
+        "tau 1 px vs full resolution: %.3f %% of pixels differ; %.1f %% of the triangles\n",
+        100.0 * total.fraction(), 100.0 * double(roam_triangles) / double(full_triangles));
+    EXPECT_LT(total.fraction(), 0.03);
+    EXPECT_LT(roam_triangles * 4, full_triangles); // and it needed far fewer triangles
+}
+
+// Buffers follow the tessellation: a still camera uploads nothing, a crater uploads the tiles
+// it changed, and the renderer sends exactly the bytes the tiles' dirty pages hold.
+TEST(OsmesaRender, UploadsOnlyWhatChanged) {
+    Terrain t = testing::makeHills(7, 257, 257, 1.0);
+    Scene scene(t, 1.0);
+    ASSERT_TRUE(scene.ok());
+    const roam::Camera camera = lookAt({-30.0, -30.0, 80.0}, {128.0, 128.0, 30.0});
+    render::UploadStats first;
+    scene.frame(camera, &first);
+    EXPECT_EQ(first.vertex_tiles, static_cast<std::uint32_t>(scene.tess->tileCount()));
+    EXPECT_EQ(first.vertex_bytes, std::uint64_t{16} * roam::kTileBaseVertices * 6 * sizeof(float));
+    EXPECT_GT(first.index_bytes, 0u);
+
+    render::UploadStats still;
+    scene.frame(camera, &still);
+    EXPECT_EQ(still.bytes(), 0u);
+    EXPECT_EQ(still.index_uploads, 0u);
+
+    // a crater inside tile 5 (cells 64..127 x 64..127): its vertex array grows detail blocks
+    const OpEffect effect = blast(t, 96.0, 96.0, 6.0, 2.0);
+    scene.tess->terrainChanged(std::span<const CellRect>(&effect.cells, 1), false);
+    scene.tess->update(camera);
+    std::uint64_t expected_index_bytes = 0;
+    for (std::int32_t tile = 0; tile < scene.tess->tileCount(); ++tile)
+        expected_index_bytes +=
+            scene.tess->tileMesh(tile).dirty() ? scene.tess->tileMesh(tile).dirtyUploadBytes() : 0;
+    const render::UploadStats after = scene.renderer->sync(*scene.tess, t);
+    EXPECT_EQ(after.vertex_tiles, 1u);
+    EXPECT_GT(after.vertex_bytes, first.vertex_bytes / 16); // base grid + the new blocks
+    EXPECT_EQ(after.index_bytes, expected_index_bytes);
+    EXPECT_GT(after.index_bytes, 0u);
+    EXPECT_LE(after.index_tiles, 4u);
+    EXPECT_EQ(scene.renderer->totals().bytes(), first.bytes() + after.bytes());
+}
+
+} // namespace
+} // namespace terrain
