@@ -81,4 +81,10 @@ ScreenPoint ViewMetric::project(const glm::dvec3& p) const {
         camera_.viewport_height * 0.5 - focal_pixels_ * y / z, z};
 }
 
+glm::dvec3 ViewMetric::rayThrough(double x, double y) const {
+    const double rx = (x - camera_.viewport_width * 0.5) / focal_pixels_;
+    const double ry = (camera_.viewport_height * 0.5 - y) / focal_pixels_;
+    return glm::normalize(forward_ + right_ * rx + up_ * ry);
+}
+
 } // namespace terrain::roam

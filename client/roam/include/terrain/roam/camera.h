@@ -71,6 +71,8 @@ class ViewMetric {
 
     /// Projection; depth <= near plane means the point is not visible.
     ScreenPoint project(const glm::dvec3& p) const;
+    /// The inverse: the unit direction from the eye through pixel position (x, y) (a click).
+    glm::dvec3 rayThrough(double x, double y) const;
     bool isVisible(const ScreenPoint& s) const {
         return s.depth >= camera_.near_plane && s.x >= 0.0 && s.y >= 0.0 &&
                s.x <= camera_.viewport_width && s.y <= camera_.viewport_height;

@@ -1,0 +1,16 @@
+#pragma once
+
+// The replica -> tessellator edge of a client frame: what the replica changed (ops' cell
+// rectangles, repaired tiles, a whole snapshot) becomes the tessellator's terrainChanged().
+
+#include <terrain/client/replica.h>
+#include <terrain/roam/tessellator.h>
+
+namespace terrain::client {
+
+/// Hands `dirty` (from Replica::takeDirty) to `tess`, built on the replica's terrain. Repaired
+/// tiles become their cell rectangles; a snapshot resets the tessellator (which adopts a new
+/// world's size). Returns false when nothing changed.
+bool feedChanges(const DirtySet& dirty, const WorldSpec& spec, roam::Tessellator& tess);
+
+} // namespace terrain::client
