@@ -857,3 +857,28 @@ TEST(RoamMesh, ATeleportRebuildsTopDown) {
 
 } // namespace
 } // namespace terrain::testing
+
+namespace terrain::roam {
+namespace {
+
+// A click's ray (ViewMetric::rayThrough) projects back onto the pixel it came from.
+TEST(Camera, RayThroughAPixelProjectsBackOntoIt) {
+    Camera c;
+    c.eye = glm::dvec3(10.0, -20.0, 30.0);
+    c.forward = glm::dvec3(0.3, 1.0, -0.4);
+    c.viewport_width = 640;
+    c.viewport_height = 360;
+    const ViewMetric m(c);
+    for (const auto& [x, y] : std::vector<std::pair<double, double>>{
+             {0.0, 0.0}, {320.0, 180.0}, {639.0, 12.5}, {17.0, 359.0}}) {
+        const glm::dvec3 d = m.rayThrough(x, y);
+        EXPECT_NEAR(glm::length(d), 1.0, 1e-12);
+        const ScreenPoint s = m.project(c.eye + 50.0 * d);
+        EXPECT_NEAR(s.x, x, 1e-9);
+        EXPECT_NEAR(s.y, y, 1e-9);
+        EXPECT_GT(s.depth, 0.0);
+    }
+}
+
+} // namespace
+} // namespace terrain::roam

@@ -4,10 +4,14 @@
 
 #include <terrain/io/png_image.h>
 
+#include <png.h>
+
 #include <algorithm>
 #include <cstdint>
 #include <cstdlib>
 #include <functional>
+#include <optional>
+#include <string>
 
 namespace terrain::testing {
 
@@ -55,6 +59,24 @@ inline int distinctColours(const io::RgbImage& image, int cap = 1 << 20) {
     std::sort(colours.begin(), colours.end());
     const auto n = std::unique(colours.begin(), colours.end()) - colours.begin();
     return static_cast<int>(std::min<std::ptrdiff_t>(n, cap));
+}
+
+/// Reads any PNG as 8-bit RGB (libpng's simplified API); nothing if it cannot.
+inline std::optional<io::RgbImage> readRgbPngForTest(const std::string& path) {
+    png_image png{};
+    png.version = PNG_IMAGE_VERSION;
+    if (png_image_begin_read_from_file(&png, path.c_str()) == 0)
+        return std::nullopt;
+    png.format = PNG_FORMAT_RGB;
+    io::RgbImage image;
+    image.width = static_cast<std::int32_t>(png.width);
+    image.height = static_cast<std::int32_t>(png.height);
+    image.rgb.resize(PNG_IMAGE_SIZE(png));
+    if (png_image_finish_read(&png, nullptr, image.rgb.data(), 0, nullptr) == 0) {
+        png_image_free(&png);
+        return std::nullopt;
+    }
+    return image;
 }
 
 } // namespace terrain::testing

@@ -1,0 +1,41 @@
+#pragma once
+
+// A headless client for tests, load and the demo: joins a server, flies its script, blasts
+// craters where its "clicks" hit the replica's surface, tessellates every frame, optionally
+// renders offscreen (OSMesa) and writes PNG frames, then waits until the world is quiet and
+// reports what it saw: hash agreement, frame times, triangles, bytes.
+
+#include <terrain/bot/bot_report.h>
+#include <terrain/bot/bot_script.h>
+#include <terrain/result.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+namespace terrain::bot {
+
+struct BotConfig {
+    std::string name = "bot";
+    std::string host = "127.0.0.1";
+    std::uint16_t port = 7777;
+    std::string token;
+    ScriptOptions script;
+    double tau_pixels = 2.0;
+    std::int64_t max_triangles = 400000;
+    bool render = false;           ///< OSMesa offscreen: frame times include drawing
+    std::filesystem::path png_dir; ///< before.png, after.png (+ every png_every frames)
+    int png_every = 0;
+    double join_timeout_seconds = 60.0;
+    /// After the script: the world counts as settled once no op arrived for this long and every
+    /// crater request was answered.
+    double settle_seconds = 1.5;
+    double settle_timeout_seconds = 60.0;
+};
+
+/// Errors: kIo when it cannot join or settle in time (the message says which and why);
+/// kUnsupported when rendering was asked for and no OSMesa context could be made; the
+/// renderer's and PNG writer's errors.
+Result<BotReport> runBot(const BotConfig& config);
+
+} // namespace terrain::bot

@@ -1,0 +1,65 @@
+#pragma once
+
+// A bot's report (JSON on disk) and the table that compares several: do all clients and the
+// server hold the same world at the same seq, and what did the frames cost.
+
+#include <terrain/result.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace terrain::bot {
+
+/// Median, 95th percentile and maximum of a per-frame series (nearest rank).
+struct Spread {
+    double median = 0.0;
+    double p95 = 0.0;
+    double max = 0.0;
+    static Spread of(std::vector<double> values);
+};
+
+struct BotReport {
+    std::string name;
+    int frames = 0;
+    double seconds = 0.0; ///< wall time from joined to settled
+    double join_seconds = 0.0;
+    std::uint64_t final_seq = 0;
+    std::uint64_t world_hash = 0;
+    bool synced = false; ///< live, replica verified at the end
+    std::uint64_t ops_applied = 0;
+    std::uint64_t hash_mismatches = 0;
+    std::uint64_t repairs = 0;
+    std::uint64_t snapshots = 0;
+    int craters_requested = 0;
+    int craters_accepted = 0;
+    int craters_refused = 0;
+    int craters_missed = 0; ///< the click's ray hit no ground
+    Spread tessellate_ms;
+    Spread render_ms; ///< sync + draw + finish (0 without rendering)
+    Spread frame_ms;  ///< whole frame: network, tessellation, rendering
+    Spread triangles;
+    Spread visible_triangles;
+    std::uint64_t upload_bytes = 0; ///< vertex + index bytes sent to the GL
+    std::uint64_t vertex_bytes = 0;
+    std::uint64_t index_bytes = 0;
+    Spread upload_bytes_per_frame;
+    std::uint64_t bytes_in = 0;    ///< from the server, all frames
+    std::uint64_t op_bytes_in = 0; ///< of which op broadcasts
+    double rtt_ms = 0.0;
+    std::string renderer; ///< GL renderer string, empty without rendering
+    std::vector<std::string> pngs;
+};
+
+std::string toJson(const BotReport& report);
+/// Errors: kIo (cannot read), kBadFormat (not a report: the field that is missing or wrong).
+Result<BotReport> readReport(const std::filesystem::path& path);
+Status writeReport(const std::filesystem::path& path, const BotReport& report);
+
+/// Prints one row per report and the verdict; true when every report holds the same seq and
+/// world hash and none saw a mismatch it did not repair.
+bool printTable(const std::vector<BotReport>& reports, std::FILE* out);
+
+} // namespace terrain::bot

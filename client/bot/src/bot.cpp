@@ -1,0 +1,228 @@
+#include <terrain/bot/bot.h>
+#include <terrain/client/connection.h>
+#include <terrain/client/replica.h>
+#include <terrain/client/tessellation_feed.h>
+#include <terrain/render/osmesa_context.h>
+#include <terrain/render/terrain_renderer.h>
+#include <terrain/roam/tessellator.h>
+#include <terrain/surface_query.h>
+
+#include <asio.hpp>
+#include <chrono>
+#include <memory>
+#include <thread>
+
+namespace terrain::bot {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+double secondsSince(Clock::time_point t0) {
+    return msSince(t0) / 1000.0;
+}
+
+/// Polls the connection until `done()` or the timeout; false on timeout.
+template <typename Done> bool pollUntil(asio::io_context& io, double timeout_seconds, Done done) {
+    const Clock::time_point t0 = Clock::now();
+    while (!done()) {
+        if (secondsSince(t0) > timeout_seconds)
+            return false;
+        io.run_for(std::chrono::milliseconds(5));
+        io.restart();
+    }
+    return true;
+}
+
+/// The offscreen half of a bot: context, renderer, PNG frames.
+struct Renderer {
+    std::unique_ptr<render::OsmesaContext> context;
+    std::unique_ptr<render::TerrainRenderer> terrain;
+};
+} // namespace
+
+Result<BotReport> runBot(const BotConfig& config) {
+    BotReport report;
+    report.name = config.name;
+    asio::io_context io;
+    client::Replica replica;
+    client::ConnectionConfig cc;
+    cc.host = config.host;
+    cc.port = config.port;
+    cc.token = config.token;
+    cc.client_name = "terrain-bot/" + config.name;
+    auto connection = std::make_shared<client::Connection>(io, cc, replica);
+    int answers_pending = 0;
+    connection->on_deform_reply = [&](const client::DeformAnswer& a) {
+        --answers_pending;
+        if (a.accepted)
+            ++report.craters_accepted;
+        else
+            ++report.craters_refused;
+    };
+    Clock::time_point last_op = Clock::now();
+    connection->on_applied = [&](std::uint64_t) { last_op = Clock::now(); };
+    connection->start();
+
+    const Clock::time_point join_start = Clock::now();
+    if (!pollUntil(io, config.join_timeout_seconds, [&] { return connection->synced(); })) {
+        const std::string why = connection->lastDisconnect();
+        connection->stop();
+        return makeError(
+            ErrorCode::kIo, "could not join " + config.host + ":" + std::to_string(config.port) +
+                                " within " + std::to_string(config.join_timeout_seconds) + " s" +
+                                (why.empty() ? "" : ": " + why));
+    }
+    report.join_seconds = secondsSince(join_start);
+    replica.takeDirty(); // the tessellator starts from this state
+
+    ScriptOptions script_options = config.script;
+    BotScript script(script_options, replica.terrain().spec());
+    roam::TessellatorOptions to;
+    to.tau_pixels = config.tau_pixels;
+    to.max_triangles = config.max_triangles;
+    roam::Tessellator tess(replica.terrain(), to);
+
+    Renderer gpu;
+    if (config.render) {
+        auto context = render::OsmesaContext::create(
+            script_options.viewport_width, script_options.viewport_height);
+        if (!context)
+            return context.error();
+        gpu.context = std::move(*context);
+        auto renderer = render::TerrainRenderer::create(*gpu.context);
+        if (!renderer)
+            return renderer.error();
+        gpu.terrain = std::move(*renderer);
+        report.renderer = gpu.context->describe();
+        if (!config.png_dir.empty())
+            std::filesystem::create_directories(config.png_dir);
+    }
+    const auto writePng = [&](const std::string& file) -> Status {
+        const std::filesystem::path path = config.png_dir / file;
+        Status s = io::writeRgbPng(path, gpu.context->readPixels());
+        if (s)
+            report.pngs.push_back(path.string());
+        return s;
+    };
+
+    std::vector<double> tessellate_ms;
+    std::vector<double> render_ms;
+    std::vector<double> frame_ms;
+    std::vector<double> triangles;
+    std::vector<double> visible;
+    std::vector<double> uploads;
+    const auto frame = [&](const roam::Camera& camera) {
+        const Clock::time_point t0 = Clock::now();
+        io.poll();
+        io.restart();
+        client::feedChanges(replica.takeDirty(), replica.terrain().spec(), tess);
+        const Clock::time_point t1 = Clock::now();
+        const roam::FrameStats fs = tess.update(camera);
+        tessellate_ms.push_back(msSince(t1));
+        triangles.push_back(static_cast<double>(fs.triangles));
+        visible.push_back(static_cast<double>(fs.visible_triangles));
+        if (gpu.terrain) {
+            const Clock::time_point t2 = Clock::now();
+            const render::UploadStats up = gpu.terrain->sync(tess, replica.terrain());
+            gpu.terrain->draw(tess, camera, render::RenderOptions{});
+            gpu.context->present();
+            render_ms.push_back(msSince(t2));
+            uploads.push_back(static_cast<double>(up.bytes()));
+        }
+        frame_ms.push_back(msSince(t0));
+    };
+
+    const Clock::time_point run_start = Clock::now();
+    const int frames = script_options.frames;
+    for (int f = 0; f < frames; ++f) {
+        const roam::Camera camera = script.camera(f, replica.terrain());
+        frame(camera);
+        if (f == 0 && gpu.terrain && !config.png_dir.empty()) {
+            Status s = writePng("before.png");
+            if (!s)
+                return s.error();
+        }
+        if (gpu.terrain && config.png_every > 0 && f % config.png_every == 0 &&
+            !config.png_dir.empty()) {
+            char name[32];
+            std::snprintf(name, sizeof name, "frame_%05d.png", f);
+            Status s = writePng(name);
+            if (!s)
+                return s.error();
+        }
+        if (script.craterDue(f)) {
+            // a click: the ray through the shot's pixel, against the replica's true surface
+            const CraterShot shot = script.shot(f);
+            const glm::dvec3 ray = roam::ViewMetric(camera).rayThrough(shot.pixel_x, shot.pixel_y);
+            const std::optional<RayHit> hit = castRay(replica.terrain(), camera.eye, ray, 1.0e5);
+            if (!hit) {
+                ++report.craters_missed;
+                continue;
+            }
+            OpRequest request;
+            request.kind = OpKind::kCrater;
+            request.x = hit->point.x;
+            request.y = hit->point.y;
+            request.radius = shot.radius;
+            request.height = shot.depth;
+            request.strength = 0.3;
+            connection->requestDeform(request);
+            ++report.craters_requested;
+            ++answers_pending;
+        }
+        if (f % 30 == 0)
+            connection->ping();
+    }
+
+    // settle: every request answered and the op stream quiet, then the after frame from the
+    // first frame's camera (so before.png and after.png compare)
+    const roam::Camera first = script.camera(0, replica.terrain());
+    const bool settled = pollUntil(io, config.settle_timeout_seconds, [&] {
+        client::feedChanges(replica.takeDirty(), replica.terrain().spec(), tess);
+        return answers_pending <= 0 && secondsSince(last_op) >= config.settle_seconds &&
+               connection->synced();
+    });
+    frame(first);
+    if (gpu.terrain && !config.png_dir.empty()) {
+        Status s = writePng("after.png");
+        if (!s)
+            return s.error();
+    }
+    report.seconds = secondsSince(run_start);
+    report.frames = frames;
+    report.final_seq = replica.seq();
+    report.world_hash = replica.worldHash();
+    report.synced = settled && connection->synced();
+    report.ops_applied = replica.stats().ops_applied;
+    report.hash_mismatches = replica.stats().hash_mismatches;
+    report.repairs = replica.stats().repairs;
+    report.snapshots = replica.stats().snapshots;
+    report.tessellate_ms = Spread::of(tessellate_ms);
+    report.render_ms = Spread::of(render_ms);
+    report.frame_ms = Spread::of(frame_ms);
+    report.triangles = Spread::of(triangles);
+    report.visible_triangles = Spread::of(visible);
+    report.upload_bytes_per_frame = Spread::of(uploads);
+    if (gpu.terrain) {
+        report.vertex_bytes = gpu.terrain->totals().vertex_bytes;
+        report.index_bytes = gpu.terrain->totals().index_bytes;
+        report.upload_bytes = gpu.terrain->totals().bytes();
+    }
+    report.bytes_in = connection->stats().bytes_in;
+    report.op_bytes_in = connection->stats().op_bytes_in;
+    report.rtt_ms = connection->roundTripSeconds() * 1000.0;
+    connection->stop();
+    io.run_for(std::chrono::milliseconds(50));
+    if (!settled)
+        return makeError(
+            ErrorCode::kIo, "the world did not settle within " +
+                                std::to_string(config.settle_timeout_seconds) + " s (" +
+                                std::to_string(answers_pending) + " crater requests unanswered)");
+    return report;
+}
+
+} // namespace terrain::bot

@@ -1,0 +1,118 @@
+// terrain-bot: a headless client for tests, load and the demo.
+//   terrain-bot [run] --connect host:port --token T [options]   fly, blast, report (JSON)
+//   terrain-bot table a.json b.json ...                          compare reports; exit 1 unless
+//                                                                 every one holds the same world
+
+#include <terrain/bot/bot.h>
+
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <cstdlib>
+
+namespace {
+
+using namespace terrain;
+
+Result<std::uint16_t> parseEndpoint(const std::string& endpoint, std::string& host) {
+    const std::size_t colon = endpoint.rfind(':');
+    if (colon == std::string::npos || colon == 0)
+        return makeError(
+            ErrorCode::kBadFormat, "--connect must be host:port, got '" + endpoint + "'");
+    host = endpoint.substr(0, colon);
+    const std::string port_text = endpoint.substr(colon + 1);
+    char* end = nullptr;
+    const unsigned long port = std::strtoul(port_text.c_str(), &end, 10);
+    if (port_text.empty() || *end != '\0' || port == 0 || port > 65535)
+        return makeError(
+            ErrorCode::kOutOfRange, "--connect port must be 1..65535, got '" + port_text + "'");
+    return static_cast<std::uint16_t>(port);
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"terrain-bot: headless terrain client (scripted flight, craters, report)"};
+    app.require_subcommand(0, 1);
+    bot::BotConfig config;
+    std::string connect = "127.0.0.1:7777";
+    std::string report_path;
+    std::vector<std::string> tables;
+
+    CLI::App* run = app.add_subcommand("run", "fly the script against a server (the default)");
+    for (CLI::App* a : {static_cast<CLI::App*>(&app), run}) {
+        // options live on the top level too, so `terrain-bot --connect ...` works without `run`
+        a->add_option("--connect", connect, "server host:port")->envname("TERRAIN_CONNECT");
+        a->add_option("--token", config.token, "access token (terrain-server token)")
+            ->envname("TERRAIN_TOKEN");
+        a->add_option("--name", config.name, "label in reports");
+        a->add_option("--seed", config.script.seed, "script seed: focus point, flight, shots");
+        a->add_option("--frames", config.script.frames, "frames to fly")
+            ->check(CLI::Range(1, 1000000));
+        a->add_option("--craters", config.script.craters, "craters to blast over the run")
+            ->check(CLI::Range(0, 100000));
+        a->add_option("--width", config.script.viewport_width)->check(CLI::Range(16, 8192));
+        a->add_option("--height", config.script.viewport_height)->check(CLI::Range(16, 8192));
+        a->add_option("--tau", config.tau_pixels, "screen-space error bound, pixels")
+            ->check(CLI::PositiveNumber);
+        a->add_option("--max-triangles", config.max_triangles, "triangle cap (0: none)")
+            ->check(CLI::NonNegativeNumber);
+        a->add_option("--orbit", config.script.orbit_radius_metres, "orbit radius, metres")
+            ->check(CLI::PositiveNumber);
+        a->add_option("--altitude", config.script.altitude_metres, "above the focus, metres")
+            ->check(CLI::PositiveNumber);
+        a->add_flag("--render", config.render, "render every frame offscreen (OSMesa)");
+        a->add_option(
+            "--png-dir", config.png_dir, "write before.png and after.png here (implies --render)");
+        a->add_option("--png-every", config.png_every, "also write every Nth frame")
+            ->check(CLI::NonNegativeNumber);
+        a->add_option("--settle", config.settle_seconds, "quiet seconds that end the run")
+            ->check(CLI::NonNegativeNumber);
+        a->add_option("--report", report_path, "write the JSON report here (default: stdout)");
+    }
+    CLI::App* table = app.add_subcommand("table", "compare reports: exit 1 unless all agree");
+    table->add_option("reports", tables, "report files")->required()->check(CLI::ExistingFile);
+    CLI11_PARSE(app, argc, argv);
+
+    if (table->parsed()) {
+        std::vector<bot::BotReport> reports;
+        for (const std::string& path : tables) {
+            Result<bot::BotReport> r = bot::readReport(path);
+            if (!r) {
+                std::fprintf(stderr, "terrain-bot: %s\n", r.error().message.c_str());
+                return 2;
+            }
+            reports.push_back(std::move(*r));
+        }
+        return bot::printTable(reports, stdout) ? 0 : 1;
+    }
+
+    Result<std::uint16_t> port = parseEndpoint(connect, config.host);
+    if (!port) {
+        std::fprintf(stderr, "terrain-bot: %s\n", port.error().message.c_str());
+        return 2;
+    }
+    config.port = *port;
+    if (!config.png_dir.empty())
+        config.render = true;
+    Result<bot::BotReport> report = bot::runBot(config);
+    if (!report) {
+        std::fprintf(
+            stderr, "terrain-bot %s: %s\n", config.name.c_str(), report.error().message.c_str());
+        return 1;
+    }
+    if (report_path.empty()) {
+        std::fputs(bot::toJson(*report).c_str(), stdout);
+    } else {
+        Status s = bot::writeReport(report_path, *report);
+        if (!s) {
+            std::fprintf(stderr, "terrain-bot: %s\n", s.error().message.c_str());
+            return 1;
+        }
+    }
+    const bool ok = report->synced && report->hash_mismatches == report->repairs;
+    if (!ok)
+        std::fprintf(
+            stderr, "terrain-bot %s: replica not verified at the end\n", config.name.c_str());
+    return ok ? 0 : 1;
+}
