@@ -115,11 +115,19 @@ Result<BotReport> runBot(const BotConfig& config) {
     std::vector<double> triangles;
     std::vector<double> visible;
     std::vector<double> uploads;
+    // what the replica changed goes to the tessellator and, for normals, to the renderer
+    const auto absorb = [&] {
+        const client::DirtySet dirty = replica.takeDirty();
+        if (!client::feedChanges(dirty, replica.terrain().spec(), tess) || !gpu.terrain)
+            return;
+        gpu.terrain->surfaceChanged(
+            client::changedCells(dirty, replica.terrain().spec()), dirty.all);
+    };
     const auto frame = [&](const roam::Camera& camera) {
         const Clock::time_point t0 = Clock::now();
         io.poll();
         io.restart();
-        client::feedChanges(replica.takeDirty(), replica.terrain().spec(), tess);
+        absorb();
         const Clock::time_point t1 = Clock::now();
         const roam::FrameStats fs = tess.update(camera);
         tessellate_ms.push_back(msSince(t1));
@@ -182,7 +190,7 @@ Result<BotReport> runBot(const BotConfig& config) {
     // first frame's camera (so before.png and after.png compare)
     const roam::Camera first = script.camera(0, replica.terrain());
     const bool settled = pollUntil(io, config.settle_timeout_seconds, [&] {
-        client::feedChanges(replica.takeDirty(), replica.terrain().spec(), tess);
+        absorb();
         return answers_pending <= 0 && secondsSince(last_op) >= config.settle_seconds &&
                connection->synced();
     });

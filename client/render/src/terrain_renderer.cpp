@@ -15,8 +15,23 @@
 namespace terrain::render {
 
 namespace {
-constexpr std::size_t kFloatsPerVertex = 6; // position, normal
-constexpr GLsizei kVertexStride = static_cast<GLsizei>(kFloatsPerVertex * sizeof(float));
+static_assert(sizeof(GpuVertex) == 16);
+constexpr GLsizei kVertexStride = sizeof(GpuVertex);
+
+std::uint32_t packNormal(double nx, double ny, double nz) {
+    const auto component = [](double v, int shift) {
+        const auto q = static_cast<std::int32_t>(std::lround(std::clamp(v, -1.0, 1.0) * 511.0));
+        return (static_cast<std::uint32_t>(q) & 0x3ffu) << shift;
+    };
+    return component(nx, 0) | component(ny, 10) | component(nz, 20);
+}
+
+bool sameVertex(const roam::TileVertex& a, const roam::TileVertex& b) {
+    return a.position == b.position && a.height == b.height;
+}
+
+// Uploads are split where this many unchanged vertices separate two changed runs.
+constexpr std::uint32_t kVertexRunGap = 64;
 constexpr std::uint32_t kIndexBytesPerSlot = roam::TileMesh::kIndexBytesPerTriangle;
 
 const void* byteOffset(std::size_t bytes) {
@@ -66,7 +81,8 @@ void TerrainRenderer::releaseTiles() {
 std::uint64_t TerrainRenderer::gpuBytes() const {
     std::uint64_t bytes = 0;
     for (const TileBuffers& tb : tiles_)
-        bytes += tb.vertex_bytes + std::uint64_t{tb.index_capacity_slots} * kIndexBytesPerSlot;
+        bytes += std::uint64_t{tb.vertex_capacity} * sizeof(GpuVertex) +
+                 std::uint64_t{tb.index_capacity_slots} * kIndexBytesPerSlot;
     return bytes;
 }
 
@@ -87,26 +103,25 @@ UploadStats TerrainRenderer::sync(roam::Tessellator& tess, const Terrain& terrai
             gl_.GenBuffers(1, &tb.vertex_buffer);
             gl_.GenBuffers(1, &tb.index_buffer);
             gl_.BindVertexArray(tb.vao);
-            gl_.BindBuffer(GL_ARRAY_BUFFER, tb.vertex_buffer);
-            gl_.EnableVertexAttribArray(0);
-            gl_.VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, kVertexStride, byteOffset(0));
-            gl_.EnableVertexAttribArray(1);
-            gl_.VertexAttribPointer(
-                1, 3, GL_FLOAT, GL_FALSE, kVertexStride, byteOffset(3 * sizeof(float)));
+            attachVertexBuffer(tb);
             gl_.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, tb.index_buffer); // recorded in the VAO
         }
         gl_.BindVertexArray(0);
     }
     for (std::int32_t t = 0; t < tess.tileCount(); ++t) {
         TileBuffers& tb = tiles_[static_cast<std::size_t>(t)];
-        if (!tb.has_vertices || tb.vertex_version != tess.tileVertexVersion(t))
+        if (!tb.has_vertices || tb.vertex_version != tess.tileVertexVersion(t) ||
+            surfaceChangedIn(t))
             uploadVertices(tess, terrain, t, tb, stats);
         roam::TileMesh& mesh = tess.tileMesh(t);
-        if (mesh.dirty())
+        // a renderer that joins a running tessellator loads every list once
+        if (mesh.dirty() || !tb.has_indices)
             uploadIndices(mesh, tb, stats);
         tb.triangles = mesh.triangleCount();
     }
     gl_.BindVertexArray(0);
+    changed_.clear();
+    all_changed_ = false;
     // colours follow the world's first heights: a crater must not recolour the whole map
     height_range_fixed_ = true;
     totals_.vertex_bytes += stats.vertex_bytes;
@@ -115,6 +130,60 @@ UploadStats TerrainRenderer::sync(roam::Tessellator& tess, const Terrain& terrai
     totals_.index_tiles += stats.index_tiles;
     totals_.index_uploads += stats.index_uploads;
     return stats;
+}
+
+void TerrainRenderer::surfaceChanged(std::span<const CellRect> cells, bool all) {
+    all_changed_ = all_changed_ || all;
+    // normals sample the surface up to one cell away: widen by a cell
+    for (const CellRect& c : cells)
+        if (!c.empty())
+            changed_.push_back(Region{
+                {(c.x0 - 1) * roam::kLatticePerCell, (c.y0 - 1) * roam::kLatticePerCell},
+                {(c.x1 + 2) * roam::kLatticePerCell, (c.y1 + 2) * roam::kLatticePerCell}});
+}
+
+bool TerrainRenderer::surfaceChangedIn(std::int32_t tile) const {
+    if (all_changed_)
+        return true;
+    const std::int32_t x0 = (tile % spec_.tilesX()) * roam::kLatticePerTile;
+    const std::int32_t y0 = (tile / spec_.tilesX()) * roam::kLatticePerTile;
+    const Region t{{x0, y0}, {x0 + roam::kLatticePerTile, y0 + roam::kLatticePerTile}};
+    for (const Region& r : changed_)
+        if (r.lo.x <= t.hi.x && t.lo.x <= r.hi.x && r.lo.y <= t.hi.y && t.lo.y <= r.hi.y)
+            return true;
+    return false;
+}
+
+void TerrainRenderer::attachVertexBuffer(const TileBuffers& tb) {
+    // the VAO must be bound: the attribute formats and the buffer are recorded in it
+    gl_.BindBuffer(GL_ARRAY_BUFFER, tb.vertex_buffer);
+    gl_.EnableVertexAttribArray(0);
+    gl_.VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, kVertexStride, byteOffset(0));
+    gl_.EnableVertexAttribArray(1);
+    gl_.VertexAttribPointer(
+        1, 4, GL_INT_2_10_10_10_REV, GL_TRUE, kVertexStride, byteOffset(3 * sizeof(float)));
+}
+
+void TerrainRenderer::growVertexBuffer(TileBuffers& tb, std::uint32_t count) {
+    // a bigger buffer with the old contents copied on the GPU, so that only what changed is
+    // uploaded; a quarter to spare, as a tile gains blocks crater by crater
+    const std::uint32_t capacity = count + count / 4;
+    GLuint grown = 0;
+    gl_.GenBuffers(1, &grown);
+    gl_.BindBuffer(GL_COPY_WRITE_BUFFER, grown);
+    gl_.BufferData(
+        GL_COPY_WRITE_BUFFER, sizeOf(std::uint64_t{capacity} * sizeof(GpuVertex)), nullptr,
+        GL_STATIC_DRAW);
+    gl_.BindBuffer(GL_COPY_READ_BUFFER, tb.vertex_buffer);
+    gl_.CopyBufferSubData(
+        GL_COPY_READ_BUFFER, GL_COPY_WRITE_BUFFER, 0, 0,
+        sizeOf(std::uint64_t{tb.shadow.size()} * sizeof(GpuVertex)));
+    gl_.DeleteBuffers(1, &tb.vertex_buffer);
+    tb.vertex_buffer = grown;
+    tb.vertex_capacity = capacity;
+    gl_.BindVertexArray(tb.vao);
+    attachVertexBuffer(tb);
+    gl_.BindVertexArray(0);
 }
 
 void TerrainRenderer::uploadVertices(
@@ -129,45 +198,115 @@ void TerrainRenderer::uploadVertices(
     const double corner_x = (tile % spec_.tilesX()) * kTileCells * spacing;
     const double corner_y = (tile / spec_.tilesX()) * kTileCells * spacing;
     const auto count = static_cast<std::uint32_t>(tess.tileVertexCount(tile));
-    scratch_vertices_.resize(std::size_t{count} * kFloatsPerVertex);
-    float* out = scratch_vertices_.data();
-    for (std::uint32_t i = 0; i < count; ++i) {
-        const roam::TileVertex v = tess.tileVertex(tile, i);
-        const double x = v.position.x * per_lattice;
-        const double y = v.position.y * per_lattice;
-        const double z = static_cast<double>(v.height) * per_fine;
-        // a smooth normal from the true surface: central differences over the vertex's own
-        // grid step (a cell on the base grid, a lattice step inside a detail block)
-        const bool on_base_grid = i < static_cast<std::uint32_t>(roam::kTileBaseVertices);
-        const double step = on_base_grid ? spacing : per_lattice;
-        const double dzdx =
-            (surfaceHeight(terrain, x + step, y) - surfaceHeight(terrain, x - step, y)) /
-            (2.0 * step);
-        const double dzdy =
-            (surfaceHeight(terrain, x, y + step) - surfaceHeight(terrain, x, y - step)) /
-            (2.0 * step);
-        const double inv = 1.0 / std::sqrt(dzdx * dzdx + dzdy * dzdy + 1.0);
-        out[0] = static_cast<float>(x - corner_x);
-        out[1] = static_cast<float>(y - corner_y);
-        out[2] = static_cast<float>(z);
-        out[3] = static_cast<float>(-dzdx * inv);
-        out[4] = static_cast<float>(-dzdy * inv);
-        out[5] = static_cast<float>(inv);
-        if (!height_range_fixed_) {
-            height_lo_ = std::min(height_lo_, out[2]);
-            height_hi_ = std::max(height_hi_, out[2]);
+    scratch_keys_.resize(count);
+    for (std::uint32_t i = 0; i < count; ++i)
+        scratch_keys_[i] = tess.tileVertex(tile, i);
+
+    // Which vertices to (re)compute: all of them for a new or outgrown buffer; otherwise those
+    // whose position or height changed, and every vertex within one cell of them, whose normal
+    // may have changed (the surface changes only where some vertex did: every patch cell has a
+    // detail block).
+    if (tb.has_vertices && count > tb.vertex_capacity)
+        growVertexBuffer(tb, count);
+    const bool full = !tb.has_vertices || all_changed_;
+    roam::LatticePoint lo{
+        std::numeric_limits<std::int32_t>::max(), std::numeric_limits<std::int32_t>::max()};
+    roam::LatticePoint hi{
+        std::numeric_limits<std::int32_t>::min(), std::numeric_limits<std::int32_t>::min()};
+    if (!full) {
+        const auto widen = [&](roam::LatticePoint p) {
+            lo = {std::min(lo.x, p.x), std::min(lo.y, p.y)};
+            hi = {std::max(hi.x, p.x), std::max(hi.y, p.y)};
+        };
+        const auto old_count = static_cast<std::uint32_t>(tb.shadow.size());
+        for (std::uint32_t i = 0; i < count; ++i) {
+            if (i < old_count && sameVertex(scratch_keys_[i], tb.shadow[i]))
+                continue;
+            widen(scratch_keys_[i].position);
+            if (i < old_count)
+                widen(tb.shadow[i].position);
         }
-        out += kFloatsPerVertex;
+        constexpr std::int32_t kStencil = roam::kLatticePerCell;
+        lo = {lo.x - kStencil, lo.y - kStencil};
+        hi = {hi.x + kStencil, hi.y + kStencil};
     }
-    const std::uint64_t bytes = std::uint64_t{count} * kFloatsPerVertex * sizeof(float);
+    const auto recompute = [&](std::uint32_t i) {
+        if (full || i >= tb.shadow.size() || !sameVertex(scratch_keys_[i], tb.shadow[i]))
+            return true;
+        const roam::LatticePoint p = scratch_keys_[i].position;
+        if (p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y)
+            return true;
+        // where the surface changed by less than a vertex height's rounding, only the normals
+        // did: surfaceChanged() says where
+        for (const Region& r : changed_)
+            if (p.x >= r.lo.x && p.x <= r.hi.x && p.y >= r.lo.y && p.y <= r.hi.y)
+                return true;
+        return false;
+    };
+
     gl_.BindVertexArray(0);
     gl_.BindBuffer(GL_ARRAY_BUFFER, tb.vertex_buffer);
-    gl_.BufferData(GL_ARRAY_BUFFER, sizeOf(bytes), scratch_vertices_.data(), GL_STATIC_DRAW);
-    tb.vertex_bytes = bytes;
+    if (full) {
+        // a new world: exactly the tile's size (most tiles never gain a block)
+        tb.vertex_capacity = count;
+        gl_.BufferData(
+            GL_ARRAY_BUFFER, sizeOf(std::uint64_t{count} * sizeof(GpuVertex)), nullptr,
+            GL_STATIC_DRAW);
+    }
+    scratch_vertices_.resize(count);
+    std::uint64_t bytes = 0;
+    std::uint32_t i = 0;
+    while (i < count) {
+        if (!recompute(i)) {
+            ++i;
+            continue;
+        }
+        // a run of vertices to send, bridging short gaps of unchanged ones
+        const std::uint32_t first = i;
+        std::uint32_t last = i; // one past the last recomputed vertex
+        while (i < count && i - last < kVertexRunGap) {
+            if (recompute(i))
+                last = i + 1;
+            ++i;
+        }
+        for (std::uint32_t k = first; k < last; ++k) {
+            const roam::TileVertex& v = scratch_keys_[k];
+            const double x = v.position.x * per_lattice;
+            const double y = v.position.y * per_lattice;
+            const double z = static_cast<double>(v.height) * per_fine;
+            // a smooth normal from the true surface: central differences over the vertex's own
+            // grid step (a cell on the base grid, a lattice step inside a detail block)
+            const bool on_base_grid = k < static_cast<std::uint32_t>(roam::kTileBaseVertices);
+            const double step = on_base_grid ? spacing : per_lattice;
+            const double dzdx =
+                (surfaceHeight(terrain, x + step, y) - surfaceHeight(terrain, x - step, y)) /
+                (2.0 * step);
+            const double dzdy =
+                (surfaceHeight(terrain, x, y + step) - surfaceHeight(terrain, x, y - step)) /
+                (2.0 * step);
+            const double inv = 1.0 / std::sqrt(dzdx * dzdx + dzdy * dzdy + 1.0);
+            GpuVertex& out = scratch_vertices_[k];
+            out.x = static_cast<float>(x - corner_x);
+            out.y = static_cast<float>(y - corner_y);
+            out.z = static_cast<float>(z);
+            out.normal = packNormal(-dzdx * inv, -dzdy * inv, inv);
+            if (!height_range_fixed_) {
+                height_lo_ = std::min(height_lo_, out.z);
+                height_hi_ = std::max(height_hi_, out.z);
+            }
+        }
+        const std::uint64_t run = std::uint64_t{last - first} * sizeof(GpuVertex);
+        gl_.BufferSubData(
+            GL_ARRAY_BUFFER, static_cast<GLintptr>(std::uint64_t{first} * sizeof(GpuVertex)),
+            sizeOf(run), scratch_vertices_.data() + first);
+        bytes += run;
+    }
+    tb.shadow.swap(scratch_keys_);
     tb.vertex_version = tess.tileVertexVersion(tile);
     tb.has_vertices = true;
     stats.vertex_bytes += bytes;
-    ++stats.vertex_tiles;
+    if (bytes > 0)
+        ++stats.vertex_tiles;
 }
 
 void TerrainRenderer::uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, UploadStats& stats) {
@@ -176,7 +315,7 @@ void TerrainRenderer::uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, Uploa
     // the element buffer binding belongs to the VAO
     gl_.BindVertexArray(tb.vao);
     std::uint64_t bytes = 0;
-    if (mesh.rewritten() || slots > tb.index_capacity_slots) {
+    if (mesh.rewritten() || !tb.has_indices || slots > tb.index_capacity_slots) {
         // grow by half again so a growing list is not reallocated every frame
         const std::uint32_t capacity =
             std::max({slots, tb.index_capacity_slots + tb.index_capacity_slots / 2, 64u});
@@ -218,6 +357,7 @@ void TerrainRenderer::uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, Uploa
         }
     }
     mesh.takeChanges();
+    tb.has_indices = true;
     stats.index_bytes += bytes;
     ++stats.index_tiles;
 }

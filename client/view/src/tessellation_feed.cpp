@@ -5,13 +5,7 @@
 
 namespace terrain::client {
 
-bool feedChanges(const DirtySet& dirty, const WorldSpec& spec, roam::Tessellator& tess) {
-    if (dirty.all) {
-        tess.terrainChanged({}, true);
-        return true;
-    }
-    if (dirty.cells.empty() && dirty.tiles.empty())
-        return false;
+std::vector<CellRect> changedCells(const DirtySet& dirty, const WorldSpec& spec) {
     std::vector<CellRect> rects(dirty.cells.begin(), dirty.cells.end());
     for (const std::int32_t tile : dirty.tiles) {
         const std::int32_t x0 = (tile % spec.tilesX()) * kTileCells;
@@ -20,7 +14,17 @@ bool feedChanges(const DirtySet& dirty, const WorldSpec& spec, roam::Tessellator
             x0, y0, std::min(x0 + kTileCells, spec.cellsX()) - 1,
             std::min(y0 + kTileCells, spec.cellsY()) - 1});
     }
-    tess.terrainChanged(rects, false);
+    return rects;
+}
+
+bool feedChanges(const DirtySet& dirty, const WorldSpec& spec, roam::Tessellator& tess) {
+    if (dirty.all) {
+        tess.terrainChanged({}, true);
+        return true;
+    }
+    if (dirty.cells.empty() && dirty.tiles.empty())
+        return false;
+    tess.terrainChanged(changedCells(dirty, spec), false);
     return true;
 }
 

@@ -34,6 +34,7 @@ namespace terrain::render {
     X(PFNGLBINDBUFFERPROC, BindBuffer)                                                             \
     X(PFNGLBUFFERDATAPROC, BufferData)                                                             \
     X(PFNGLBUFFERSUBDATAPROC, BufferSubData)                                                       \
+    X(PFNGLCOPYBUFFERSUBDATAPROC, CopyBufferSubData)                                               \
     X(PFNGLGENVERTEXARRAYSPROC, GenVertexArrays)                                                   \
     X(PFNGLDELETEVERTEXARRAYSPROC, DeleteVertexArrays)                                             \
     X(PFNGLBINDVERTEXARRAYPROC, BindVertexArray)                                                   \

@@ -19,9 +19,19 @@
 
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <vector>
 
 namespace terrain::render {
+
+/// One vertex in a tile's buffer: metres from the tile's corner (z absolute) and the normal
+/// packed as signed 10:10:10:2 (GL_INT_2_10_10_10_REV, normalised).
+struct GpuVertex {
+    float x = 0.0f;
+    float y = 0.0f;
+    float z = 0.0f;
+    std::uint32_t normal = 0;
+};
 
 enum class DrawMode { kShaded, kWireframe, kShadedWireframe };
 
@@ -58,9 +68,15 @@ class TerrainRenderer {
     TerrainRenderer(const TerrainRenderer&) = delete;
     TerrainRenderer& operator=(const TerrainRenderer&) = delete;
 
-    /// Brings the GPU buffers up to date with `tess` (after its update()) and takes its changes.
+    /// Brings the GPU buffers up to date with `tess` (after its update()) and takes its changes
+    /// (so one tessellator feeds one renderer; a renderer created later loads everything once).
     /// `terrain` is the surface `tess` was built on (normals come from it).
     UploadStats sync(roam::Tessellator& tess, const Terrain& terrain);
+    /// Where the surface changed (the replica's dirty cells; `all` for a snapshot), before the
+    /// next sync(): vertices there get new normals even where no vertex height changed (a change
+    /// below a height's rounding still turns the surface). Vertices whose position or height
+    /// changed are found without it.
+    void surfaceChanged(std::span<const CellRect> cells, bool all);
     /// Clears to the sky and draws the visible tiles as seen by `camera` into the whole
     /// framebuffer.
     DrawStats
@@ -78,13 +94,24 @@ class TerrainRenderer {
         unsigned index_buffer = 0;
         std::uint32_t vertex_version = 0;
         bool has_vertices = false;
-        std::uint64_t vertex_bytes = 0;
+        std::uint32_t vertex_capacity = 0;
+        /// The vertices as last uploaded (position, height): what changed is found by comparing.
+        std::vector<roam::TileVertex> shadow;
         std::uint32_t index_capacity_slots = 0;
+        bool has_indices = false;
         std::uint32_t triangles = 0;
     };
 
+    struct Region {
+        roam::LatticePoint lo;
+        roam::LatticePoint hi;
+    };
+
     explicit TerrainRenderer(const GlContext& context);
+    bool surfaceChangedIn(std::int32_t tile) const;
     void releaseTiles();
+    void attachVertexBuffer(const TileBuffers& tb);
+    void growVertexBuffer(TileBuffers& tb, std::uint32_t count);
     void uploadVertices(
         roam::Tessellator& tess,
         const Terrain& terrain,
@@ -112,7 +139,10 @@ class TerrainRenderer {
     float height_lo_ = 0.0f;
     float height_hi_ = 0.0f;
     bool height_range_fixed_ = false;
-    std::vector<float> scratch_vertices_;
+    std::vector<Region> changed_; ///< surfaceChanged() since the last sync, in lattice units
+    bool all_changed_ = false;
+    std::vector<roam::TileVertex> scratch_keys_;
+    std::vector<GpuVertex> scratch_vertices_;
     std::vector<std::uint32_t> scratch_pages_;
     UploadStats totals_;
 };
