@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 namespace terrain::render {
@@ -24,10 +25,6 @@ std::uint32_t packNormal(double nx, double ny, double nz) {
         return (static_cast<std::uint32_t>(q) & 0x3ffu) << shift;
     };
     return component(nx, 0) | component(ny, 10) | component(nz, 20);
-}
-
-bool sameVertex(const roam::TileVertex& a, const roam::TileVertex& b) {
-    return a.position == b.position && a.height == b.height;
 }
 
 // Uploads are split where this many unchanged vertices separate two changed runs.
@@ -198,110 +195,105 @@ void TerrainRenderer::uploadVertices(
     const double corner_x = (tile % spec_.tilesX()) * kTileCells * spacing;
     const double corner_y = (tile / spec_.tilesX()) * kTileCells * spacing;
     const auto count = static_cast<std::uint32_t>(tess.tileVertexCount(tile));
-    scratch_keys_.resize(count);
-    for (std::uint32_t i = 0; i < count; ++i)
-        scratch_keys_[i] = tess.tileVertex(tile, i);
-
-    // Which vertices to (re)compute: all of them for a new or outgrown buffer; otherwise those
-    // whose position or height changed, and every vertex within one cell of them, whose normal
-    // may have changed (the surface changes only where some vertex did: every patch cell has a
-    // detail block).
     if (tb.has_vertices && count > tb.vertex_capacity)
         growVertexBuffer(tb, count);
     const bool full = !tb.has_vertices || all_changed_;
+    const auto old_count = full ? 0u : static_cast<std::uint32_t>(tb.shadow.size());
+
+    // Positions first (cheap). Where one moved, the surface changed, and so may every normal
+    // within one cell of it (the surface changes only where some vertex did: every patch cell
+    // has a detail block), as may the normals in surfaceChanged()'s regions.
+    scratch_keys_.resize(count);
+    scratch_vertices_.resize(count);
     roam::LatticePoint lo{
         std::numeric_limits<std::int32_t>::max(), std::numeric_limits<std::int32_t>::max()};
     roam::LatticePoint hi{
         std::numeric_limits<std::int32_t>::min(), std::numeric_limits<std::int32_t>::min()};
-    if (!full) {
-        const auto widen = [&](roam::LatticePoint p) {
-            lo = {std::min(lo.x, p.x), std::min(lo.y, p.y)};
-            hi = {std::max(hi.x, p.x), std::max(hi.y, p.y)};
-        };
-        const auto old_count = static_cast<std::uint32_t>(tb.shadow.size());
-        for (std::uint32_t i = 0; i < count; ++i) {
-            if (i < old_count && sameVertex(scratch_keys_[i], tb.shadow[i]))
-                continue;
-            widen(scratch_keys_[i].position);
-            if (i < old_count)
-                widen(tb.shadow[i].position);
+    for (std::uint32_t i = 0; i < count; ++i) {
+        const roam::TileVertex v = tess.tileVertex(tile, i);
+        scratch_keys_[i] = v;
+        GpuVertex& out = scratch_vertices_[i];
+        out.x = static_cast<float>(v.position.x * per_lattice - corner_x);
+        out.y = static_cast<float>(v.position.y * per_lattice - corner_y);
+        out.z = static_cast<float>(static_cast<double>(v.height) * per_fine);
+        const bool moved = i >= old_count || out.x != tb.shadow[i].x || out.y != tb.shadow[i].y ||
+                           out.z != tb.shadow[i].z;
+        if (moved) {
+            lo = {std::min(lo.x, v.position.x), std::min(lo.y, v.position.y)};
+            hi = {std::max(hi.x, v.position.x), std::max(hi.y, v.position.y)};
         }
-        constexpr std::int32_t kStencil = roam::kLatticePerCell;
-        lo = {lo.x - kStencil, lo.y - kStencil};
-        hi = {hi.x + kStencil, hi.y + kStencil};
+        out.normal = moved ? 0u : tb.shadow[i].normal;
     }
-    const auto recompute = [&](std::uint32_t i) {
-        if (full || i >= tb.shadow.size() || !sameVertex(scratch_keys_[i], tb.shadow[i]))
-            return true;
+    constexpr std::int32_t kStencil = roam::kLatticePerCell;
+    lo = {lo.x - kStencil, lo.y - kStencil};
+    hi = {hi.x + kStencil, hi.y + kStencil};
+    const auto needsNormal = [&](std::uint32_t i) {
         const roam::LatticePoint p = scratch_keys_[i].position;
-        if (p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y)
+        if (full || i >= old_count || (p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y))
             return true;
-        // where the surface changed by less than a vertex height's rounding, only the normals
-        // did: surfaceChanged() says where
         for (const Region& r : changed_)
             if (p.x >= r.lo.x && p.x <= r.hi.x && p.y >= r.lo.y && p.y <= r.hi.y)
                 return true;
         return false;
     };
+    for (std::uint32_t i = 0; i < count; ++i) {
+        if (!needsNormal(i))
+            continue;
+        const roam::TileVertex& v = scratch_keys_[i];
+        const double x = v.position.x * per_lattice;
+        const double y = v.position.y * per_lattice;
+        // a smooth normal from the true surface: central differences over the vertex's own grid
+        // step (a cell on the base grid, a lattice step inside a detail block)
+        const bool on_base_grid = i < static_cast<std::uint32_t>(roam::kTileBaseVertices);
+        const double step = on_base_grid ? spacing : per_lattice;
+        const double dzdx =
+            (surfaceHeight(terrain, x + step, y) - surfaceHeight(terrain, x - step, y)) /
+            (2.0 * step);
+        const double dzdy =
+            (surfaceHeight(terrain, x, y + step) - surfaceHeight(terrain, x, y - step)) /
+            (2.0 * step);
+        const double inv = 1.0 / std::sqrt(dzdx * dzdx + dzdy * dzdy + 1.0);
+        scratch_vertices_[i].normal = packNormal(-dzdx * inv, -dzdy * inv, inv);
+    }
+    if (!height_range_fixed_)
+        for (const GpuVertex& v : scratch_vertices_) {
+            height_lo_ = std::min(height_lo_, v.z);
+            height_hi_ = std::max(height_hi_, v.z);
+        }
 
+    // send what differs from the buffer's contents, in runs that bridge short equal gaps
     gl_.BindVertexArray(0);
     gl_.BindBuffer(GL_ARRAY_BUFFER, tb.vertex_buffer);
-    if (full) {
-        // a new world: exactly the tile's size (most tiles never gain a block)
-        tb.vertex_capacity = count;
+    if (!tb.has_vertices) {
+        tb.vertex_capacity = count; // exactly: most tiles never gain a block
         gl_.BufferData(
             GL_ARRAY_BUFFER, sizeOf(std::uint64_t{count} * sizeof(GpuVertex)), nullptr,
             GL_STATIC_DRAW);
     }
-    scratch_vertices_.resize(count);
+    const auto differs = [&](std::uint32_t i) {
+        return i >= old_count ||
+               std::memcmp(&scratch_vertices_[i], &tb.shadow[i], sizeof(GpuVertex)) != 0;
+    };
     std::uint64_t bytes = 0;
     std::uint32_t i = 0;
     while (i < count) {
-        if (!recompute(i)) {
+        if (!differs(i)) {
             ++i;
             continue;
         }
-        // a run of vertices to send, bridging short gaps of unchanged ones
         const std::uint32_t first = i;
-        std::uint32_t last = i; // one past the last recomputed vertex
-        while (i < count && i - last < kVertexRunGap) {
-            if (recompute(i))
+        std::uint32_t last = i + 1; // one past the last differing vertex
+        for (++i; i < count && i - last < kVertexRunGap; ++i)
+            if (differs(i))
                 last = i + 1;
-            ++i;
-        }
-        for (std::uint32_t k = first; k < last; ++k) {
-            const roam::TileVertex& v = scratch_keys_[k];
-            const double x = v.position.x * per_lattice;
-            const double y = v.position.y * per_lattice;
-            const double z = static_cast<double>(v.height) * per_fine;
-            // a smooth normal from the true surface: central differences over the vertex's own
-            // grid step (a cell on the base grid, a lattice step inside a detail block)
-            const bool on_base_grid = k < static_cast<std::uint32_t>(roam::kTileBaseVertices);
-            const double step = on_base_grid ? spacing : per_lattice;
-            const double dzdx =
-                (surfaceHeight(terrain, x + step, y) - surfaceHeight(terrain, x - step, y)) /
-                (2.0 * step);
-            const double dzdy =
-                (surfaceHeight(terrain, x, y + step) - surfaceHeight(terrain, x, y - step)) /
-                (2.0 * step);
-            const double inv = 1.0 / std::sqrt(dzdx * dzdx + dzdy * dzdy + 1.0);
-            GpuVertex& out = scratch_vertices_[k];
-            out.x = static_cast<float>(x - corner_x);
-            out.y = static_cast<float>(y - corner_y);
-            out.z = static_cast<float>(z);
-            out.normal = packNormal(-dzdx * inv, -dzdy * inv, inv);
-            if (!height_range_fixed_) {
-                height_lo_ = std::min(height_lo_, out.z);
-                height_hi_ = std::max(height_hi_, out.z);
-            }
-        }
         const std::uint64_t run = std::uint64_t{last - first} * sizeof(GpuVertex);
         gl_.BufferSubData(
             GL_ARRAY_BUFFER, static_cast<GLintptr>(std::uint64_t{first} * sizeof(GpuVertex)),
             sizeOf(run), scratch_vertices_.data() + first);
         bytes += run;
+        i = last;
     }
-    tb.shadow.swap(scratch_keys_);
+    tb.shadow.swap(scratch_vertices_);
     tb.vertex_version = tess.tileVertexVersion(tile);
     tb.has_vertices = true;
     stats.vertex_bytes += bytes;

@@ -95,8 +95,8 @@ class TerrainRenderer {
         std::uint32_t vertex_version = 0;
         bool has_vertices = false;
         std::uint32_t vertex_capacity = 0;
-        /// The vertices as last uploaded (position, height): what changed is found by comparing.
-        std::vector<roam::TileVertex> shadow;
+        /// The buffer's contents: what to send is what differs from it.
+        std::vector<GpuVertex> shadow;
         std::uint32_t index_capacity_slots = 0;
         bool has_indices = false;
         std::uint32_t triangles = 0;
