@@ -66,11 +66,15 @@ Result<BotReport> runBot(const BotConfig& config) {
     Clock::time_point last_op = Clock::now();
     connection->on_applied = [&](std::uint64_t) { last_op = Clock::now(); };
     connection->start();
+    // every way out closes the connection while the replica and io_context it uses still live
+    struct StopOnExit {
+        client::Connection& c;
+        ~StopOnExit() { c.stop(); }
+    } stop_on_exit{*connection};
 
     const Clock::time_point join_start = Clock::now();
     if (!pollUntil(io, config.join_timeout_seconds, [&] { return connection->synced(); })) {
         const std::string why = connection->lastDisconnect();
-        connection->stop();
         return makeError(
             ErrorCode::kIo, "could not join " + config.host + ":" + std::to_string(config.port) +
                                 " within " + std::to_string(config.join_timeout_seconds) + " s" +
@@ -162,6 +166,8 @@ Result<BotReport> runBot(const BotConfig& config) {
             if (!s)
                 return s.error();
         }
+        if (f % 30 == 0)
+            connection->ping();
         if (script.craterDue(f)) {
             // a click: the ray through the shot's pixel, against the replica's true surface
             const CraterShot shot = script.shot(f);
@@ -182,8 +188,6 @@ Result<BotReport> runBot(const BotConfig& config) {
             ++report.craters_requested;
             ++answers_pending;
         }
-        if (f % 30 == 0)
-            connection->ping();
     }
 
     // settle: every request answered and the op stream quiet, then the after frame from the
@@ -223,8 +227,6 @@ Result<BotReport> runBot(const BotConfig& config) {
     report.bytes_in = connection->stats().bytes_in;
     report.op_bytes_in = connection->stats().op_bytes_in;
     report.rtt_ms = connection->roundTripSeconds() * 1000.0;
-    connection->stop();
-    io.run_for(std::chrono::milliseconds(50));
     if (!settled)
         return makeError(
             ErrorCode::kIo, "the world did not settle within " +
