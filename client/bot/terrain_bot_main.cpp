@@ -68,6 +68,8 @@ int main(int argc, char** argv) {
             ->check(CLI::NonNegativeNumber);
         a->add_option("--settle", config.settle_seconds, "quiet seconds that end the run")
             ->check(CLI::NonNegativeNumber);
+        a->add_option("--join-timeout", config.join_timeout_seconds, "seconds to join the server")
+            ->check(CLI::PositiveNumber);
         a->add_option("--report", report_path, "write the JSON report here (default: stdout)");
     }
     CLI::App* table = app.add_subcommand("table", "compare reports: exit 1 unless all agree");

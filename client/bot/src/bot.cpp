@@ -77,7 +77,7 @@ Result<BotReport> runBot(const BotConfig& config) {
         const std::string why = connection->lastDisconnect();
         return makeError(
             ErrorCode::kIo, "could not join " + config.host + ":" + std::to_string(config.port) +
-                                " within " + std::to_string(config.join_timeout_seconds) + " s" +
+                                " within " + seconds(config.join_timeout_seconds) + " s" +
                                 (why.empty() ? "" : ": " + why));
     }
     report.join_seconds = secondsSince(join_start);
@@ -230,7 +230,7 @@ Result<BotReport> runBot(const BotConfig& config) {
     if (!settled)
         return makeError(
             ErrorCode::kIo, "the world did not settle within " +
-                                std::to_string(config.settle_timeout_seconds) + " s (" +
+                                seconds(config.settle_timeout_seconds) + " s (" +
                                 std::to_string(answers_pending) + " crater requests unanswered)");
     return report;
 }
