@@ -25,6 +25,12 @@ double secondsSince(Clock::time_point t0) {
     return msSince(t0) / 1000.0;
 }
 
+std::string seconds(double s) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%g", s);
+    return text;
+}
+
 /// Polls the connection until `done()` or the timeout; false on timeout.
 template <typename Done> bool pollUntil(asio::io_context& io, double timeout_seconds, Done done) {
     const Clock::time_point t0 = Clock::now();
