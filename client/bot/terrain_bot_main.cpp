@@ -37,6 +37,7 @@ int main(int argc, char** argv) {
     bot::BotConfig config;
     std::string connect = "127.0.0.1:7777";
     std::string report_path;
+    std::string backend_name = "osmesa";
     std::vector<std::string> tables;
 
     CLI::App* run = app.add_subcommand("run", "fly the script against a server (the default)");
@@ -61,7 +62,9 @@ int main(int argc, char** argv) {
             ->check(CLI::PositiveNumber);
         a->add_option("--altitude", config.script.altitude_metres, "above the focus, metres")
             ->check(CLI::PositiveNumber);
-        a->add_flag("--render", config.render, "render every frame offscreen (OSMesa)");
+        a->add_flag("--render", config.render, "render every frame offscreen");
+        a->add_option("--gl", backend_name, "offscreen backend: osmesa | egl")
+            ->check(CLI::IsMember({"osmesa", "egl"}));
         a->add_option(
             "--png-dir", config.png_dir, "write before.png and after.png here (implies --render)");
         a->add_option("--png-every", config.png_every, "also write every Nth frame")
@@ -95,6 +98,7 @@ int main(int argc, char** argv) {
         return 2;
     }
     config.port = *port;
+    config.backend = *render::parseOffscreenBackend(backend_name); // checked by CLI11
     if (!config.png_dir.empty())
         config.render = true;
     Result<bot::BotReport> report = bot::runBot(config);

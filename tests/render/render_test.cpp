@@ -5,7 +5,7 @@
 #include "support/image_checks.h"
 #include "support/terrain_builders.h"
 
-#include <terrain/render/osmesa_context.h>
+#include <terrain/render/offscreen.h>
 #include <terrain/render/terrain_renderer.h>
 #include <terrain/roam/tessellator.h>
 #include <terrain/surface_query.h>
@@ -42,13 +42,17 @@ roam::Camera lookAt(glm::dvec3 eye, glm::dvec3 target) {
 
 /// One offscreen context, renderer and tessellator over `terrain`.
 struct Scene {
-    std::unique_ptr<render::OsmesaContext> context;
+    std::unique_ptr<render::GlContext> context;
     std::unique_ptr<render::TerrainRenderer> renderer;
     std::unique_ptr<roam::Tessellator> tess;
     const Terrain* terrain = nullptr;
 
-    Scene(const Terrain& t, double tau) : terrain(&t) {
-        auto c = render::OsmesaContext::create(kWidth, kHeight);
+    Scene(
+        const Terrain& t,
+        double tau,
+        render::OffscreenBackend backend = render::OffscreenBackend::kOsmesa)
+        : terrain(&t) {
+        auto c = render::createOffscreenContext(backend, kWidth, kHeight);
         if (!c.ok()) {
             ADD_FAILURE() << c.error().message;
             return;
@@ -102,9 +106,11 @@ OpEffect blast(Terrain& t, double x, double y, double radius, double depth) {
     return *effect;
 }
 
-TEST(OsmesaRender, ACraterChangesThePixelsWhereItIsAndNoOthers) {
+class OffscreenRender : public ::testing::TestWithParam<render::OffscreenBackend> {};
+
+TEST_P(OffscreenRender, ACraterChangesThePixelsWhereItIsAndNoOthers) {
     Terrain t = craterWorld();
-    Scene scene(t, 1.0);
+    Scene scene(t, 1.0, GetParam());
     ASSERT_TRUE(scene.ok());
     const glm::dvec3 centre(128.0, 128.0, surfaceHeight(t, 128.0, 128.0));
     const roam::Camera camera = lookAt(centre + glm::dvec3(-45.0, -32.0, 40.0), centre);
@@ -113,8 +119,9 @@ TEST(OsmesaRender, ACraterChangesThePixelsWhereItIsAndNoOthers) {
     const OpEffect effect = blast(t, centre.x, centre.y, 12.0, 5.0);
     scene.tess->terrainChanged(std::span<const CellRect>(&effect.cells, 1), false);
     const io::RgbImage after = scene.frame(camera);
-    ASSERT_TRUE(io::writeRgbPng(outputDir() / "crater_before.png", before).ok());
-    ASSERT_TRUE(io::writeRgbPng(outputDir() / "crater_after.png", after).ok());
+    const std::string backend = render::toString(GetParam());
+    ASSERT_TRUE(io::writeRgbPng(outputDir() / (backend + "_crater_before.png"), before).ok());
+    ASSERT_TRUE(io::writeRgbPng(outputDir() / (backend + "_crater_after.png"), after).ok());
 
     // a real picture: terrain colours, not one flat fill
     EXPECT_GT(distinctColours(before), 2000);
@@ -152,6 +159,29 @@ TEST(OsmesaRender, ACraterChangesThePixelsWhereItIsAndNoOthers) {
     EXPECT_GT(inside.fraction(), 0.6);
     EXPECT_GT(outside.counted, kWidth * kHeight / 2);
     EXPECT_LT(outside.fraction(), 0.002);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Backends,
+    OffscreenRender,
+    ::testing::Values(render::OffscreenBackend::kOsmesa, render::OffscreenBackend::kEgl),
+    [](const auto& p) { return std::string(render::toString(p.param)); });
+
+// Both offscreen backends draw one scene alike (on this machine both are llvmpipe).
+TEST(OffscreenBackends, OsmesaAndEglDrawTheSamePicture) {
+    Terrain t = craterWorld();
+    blast(t, 100.0, 140.0, 9.0, 3.0);
+    Scene osmesa(t, 1.0, render::OffscreenBackend::kOsmesa);
+    Scene egl(t, 1.0, render::OffscreenBackend::kEgl);
+    ASSERT_TRUE(osmesa.ok() && egl.ok());
+    const roam::Camera camera = lookAt({40.0, 60.0, 70.0}, {128.0, 128.0, 30.0});
+    const io::RgbImage a = osmesa.frame(camera);
+    const io::RgbImage b = egl.frame(camera);
+    std::printf(
+        "osmesa (%s) vs egl (%s)\n", osmesa.context->describe().c_str(),
+        egl.context->describe().c_str());
+    EXPECT_GT(distinctColours(a), 2000);
+    EXPECT_LT(countDiffering(a, b, 2).fraction(), 0.001);
 }
 
 } // namespace

@@ -2,7 +2,6 @@
 #include <terrain/client/connection.h>
 #include <terrain/client/replica.h>
 #include <terrain/client/tessellation_feed.h>
-#include <terrain/render/osmesa_context.h>
 #include <terrain/render/terrain_renderer.h>
 #include <terrain/roam/tessellator.h>
 #include <terrain/surface_query.h>
@@ -43,9 +42,9 @@ template <typename Done> bool pollUntil(asio::io_context& io, double timeout_sec
     return true;
 }
 
-/// The offscreen half of a bot: context, renderer, PNG frames.
+/// The offscreen half of a bot: context and renderer.
 struct Renderer {
-    std::unique_ptr<render::OsmesaContext> context;
+    std::unique_ptr<render::GlContext> context;
     std::unique_ptr<render::TerrainRenderer> terrain;
 };
 } // namespace
@@ -98,8 +97,8 @@ Result<BotReport> runBot(const BotConfig& config) {
 
     Renderer gpu;
     if (config.render) {
-        auto context = render::OsmesaContext::create(
-            script_options.viewport_width, script_options.viewport_height);
+        auto context = render::createOffscreenContext(
+            config.backend, script_options.viewport_width, script_options.viewport_height);
         if (!context)
             return context.error();
         gpu.context = std::move(*context);

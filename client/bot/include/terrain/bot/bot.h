@@ -7,6 +7,7 @@
 
 #include <terrain/bot/bot_report.h>
 #include <terrain/bot/bot_script.h>
+#include <terrain/render/offscreen.h>
 #include <terrain/result.h>
 
 #include <cstdint>
@@ -23,7 +24,8 @@ struct BotConfig {
     ScriptOptions script;
     double tau_pixels = 2.0;
     std::int64_t max_triangles = 400000;
-    bool render = false;           ///< OSMesa offscreen: frame times include drawing
+    bool render = false; ///< offscreen: frame times include drawing
+    render::OffscreenBackend backend = render::OffscreenBackend::kOsmesa;
     std::filesystem::path png_dir; ///< before.png, after.png (+ every png_every frames)
     int png_every = 0;
     double join_timeout_seconds = 60.0;
@@ -34,7 +36,7 @@ struct BotConfig {
 };
 
 /// Errors: kIo when it cannot join or settle in time (the message says which and why);
-/// kUnsupported when rendering was asked for and no OSMesa context could be made; the
+/// kUnsupported when rendering was asked for and no offscreen context could be made; the
 /// renderer's and PNG writer's errors.
 Result<BotReport> runBot(const BotConfig& config);
 
