@@ -106,8 +106,7 @@ EglContext::~EglContext() {
         eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
         eglDestroyContext(display_, context_);
     }
-    if (display_ != nullptr)
-        eglTerminate(display_);
+    // no eglTerminate: the surfaceless display is one per process, shared by every context
 }
 
 } // namespace terrain::render
