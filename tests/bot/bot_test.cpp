@@ -71,8 +71,8 @@ TEST(Bot, TwoBotsBlastCratersAndEndHoldingTheServersWorld) {
     for (const bot::BotReport* r : {&alpha, &bravo}) {
         EXPECT_TRUE(r->synced) << r->name;
         std::uint64_t server_hash = 0;
-        const bool retained = server.call(
-            [&] { return server.authority().log().hashAt(r->final_seq, server_hash); });
+        const bool retained =
+            server.call([&] { return server.authority().log().hashAt(r->final_seq, server_hash); });
         ASSERT_TRUE(retained) << r->name;
         EXPECT_EQ(r->world_hash, server_hash) << r->name;
         EXPECT_EQ(r->hash_mismatches, 0u) << r->name;
