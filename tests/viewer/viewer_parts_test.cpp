@@ -1,6 +1,8 @@
 // The viewer's parts that need no window: its option rules and the in-process server it joins
 // over loopback TCP.
 
+#include "support/net_harness.h"
+
 #include <terrain/client/connection.h>
 #include <terrain/client/replica.h>
 #include <terrain/procedural_map.h>
@@ -77,18 +79,7 @@ TEST(ViewerOptions, RulesAreNamed) {
     EXPECT_EQ(parse("--size 257 --frames 300 --fly --auto-crater 100 --tau 3"), "");
 }
 
-/// A client on this thread's io_context, run until `done` or a timeout.
-template <typename Done> bool runUntil(asio::io_context& io, Done done, double seconds = 20.0) {
-    const auto deadline = std::chrono::steady_clock::now() +
-                          std::chrono::milliseconds(static_cast<int>(seconds * 1000));
-    while (!done()) {
-        if (std::chrono::steady_clock::now() > deadline)
-            return false;
-        io.restart();
-        io.run_for(std::chrono::milliseconds(5));
-    }
-    return true;
-}
+using terrain::testing::runUntil;
 
 TEST(InProcessServer, ServesItsMapToADeformer) {
     ProceduralMapOptions map;

@@ -66,14 +66,7 @@ Result<std::unique_ptr<EglContext>> EglContext::create(int width, int height) {
     if (eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, c->context_) != EGL_TRUE)
         return makeError(ErrorCode::kUnsupported, eglFailure("eglMakeCurrent (no surface)"));
     Status loaded = c->gl_.load(
-        [](const char* name, void*) {
-            const auto f = eglGetProcAddress(name);
-            void* p = nullptr;
-            static_assert(sizeof(f) == sizeof(p));
-            std::memcpy(&p, &f, sizeof(p));
-            return p;
-        },
-        nullptr);
+        [](const char* name, void*) { return loaderPointer(eglGetProcAddress(name)); }, nullptr);
     if (!loaded)
         return loaded.error();
 

@@ -45,14 +45,7 @@ GlfwWindow::create(int width, int height, const std::string& title, bool vsync) 
     glfwMakeContextCurrent(window);
     glfwSwapInterval(vsync ? 1 : 0);
     Status loaded = w->gl_.load(
-        [](const char* name, void*) {
-            GLFWglproc f = glfwGetProcAddress(name);
-            void* p = nullptr;
-            static_assert(sizeof(f) == sizeof(p));
-            std::memcpy(&p, &f, sizeof(p));
-            return p;
-        },
-        nullptr);
+        [](const char* name, void*) { return loaderPointer(glfwGetProcAddress(name)); }, nullptr);
     if (!loaded)
         return loaded.error();
     return w;

@@ -10,6 +10,8 @@
 
 #include <GL/glcorearb.h>
 
+#include <cstring>
+
 namespace terrain::render {
 
 // X(type, name): the table member `name` calls gl<name>.
@@ -82,5 +84,14 @@ struct GlApi {
     /// naming the first function the context does not provide.
     Status load(Loader loader, void* user);
 };
+
+/// A loader's function pointer as the void* that GlApi::load takes (memcpy: no cast between
+/// function and object pointer types).
+template <typename Function> void* loaderPointer(Function f) {
+    void* p = nullptr;
+    static_assert(sizeof(f) == sizeof(p));
+    std::memcpy(&p, &f, sizeof(p));
+    return p;
+}
 
 } // namespace terrain::render
