@@ -9,6 +9,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 
 namespace {
 
@@ -58,6 +59,11 @@ int main(int argc, char** argv) {
             ->check(CLI::PositiveNumber);
         a->add_option("--max-triangles", config.max_triangles, "triangle cap (0: none)")
             ->check(CLI::NonNegativeNumber);
+        a->add_option(
+            "--barrier", config.barrier_dir,
+            "directory where bots started together meet before settling");
+        a->add_option("--peers", config.peers, "bots meeting at --barrier, this one included")
+            ->check(CLI::Range(1, 100000));
         a->add_option("--orbit", config.script.orbit_radius_metres, "orbit radius, metres")
             ->check(CLI::PositiveNumber);
         a->add_option("--altitude", config.script.altitude_metres, "above the focus, metres")
@@ -98,6 +104,8 @@ int main(int argc, char** argv) {
         return 2;
     }
     config.port = *port;
+    if (config.max_triangles == 0)
+        config.max_triangles = std::numeric_limits<std::int64_t>::max();
     config.backend = *render::parseOffscreenBackend(backend_name); // checked by CLI11
     if (!config.png_dir.empty())
         config.render = true;
@@ -116,9 +124,10 @@ int main(int argc, char** argv) {
             return 1;
         }
     }
-    const bool ok = report->synced && report->hash_mismatches == report->repairs;
-    if (!ok)
+    if (!report->error.empty())
+        std::fprintf(stderr, "terrain-bot %s: %s\n", config.name.c_str(), report->error.c_str());
+    else if (!report->synced)
         std::fprintf(
             stderr, "terrain-bot %s: replica not verified at the end\n", config.name.c_str());
-    return ok ? 0 : 1;
+    return report->synced && report->error.empty() ? 0 : 1;
 }

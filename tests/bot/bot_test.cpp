@@ -49,6 +49,11 @@ TEST(Bot, TwoBotsBlastCratersAndEndHoldingTheServersWorld) {
     a.png_dir = outputDir() / "alpha";
     std::filesystem::remove_all(a.png_dir);
     bot::BotConfig b = botConfig("bravo", 4, server.port(), 2);
+    // they meet before settling, so both end at the server's last seq
+    const auto barrier = outputDir() / "barrier";
+    std::filesystem::remove_all(barrier);
+    a.barrier_dir = b.barrier_dir = barrier;
+    a.peers = b.peers = 2;
 
     std::optional<Result<bot::BotReport>> ra;
     std::optional<Result<bot::BotReport>> rb;
@@ -65,11 +70,11 @@ TEST(Bot, TwoBotsBlastCratersAndEndHoldingTheServersWorld) {
     EXPECT_EQ(bravo.craters_requested, 5);
     EXPECT_EQ(alpha.craters_accepted + alpha.craters_missed, 5);
     EXPECT_EQ(server.seq(), std::uint64_t(alpha.craters_accepted + bravo.craters_accepted));
-    // a bot that settles first may stop before the other's last craters: each must hold the
-    // server's world at the seq it reached, and the last one to finish the final world
-    EXPECT_EQ(std::max(alpha.final_seq, bravo.final_seq), server.seq());
     for (const bot::BotReport* r : {&alpha, &bravo}) {
         EXPECT_TRUE(r->synced) << r->name;
+        EXPECT_EQ(r->error, "") << r->name;
+        EXPECT_EQ(r->final_seq, server.seq()) << r->name;
+        EXPECT_EQ(r->world_hash, server.worldHash()) << r->name;
         std::uint64_t server_hash = 0;
         const bool retained =
             server.call([&] { return server.authority().log().hashAt(r->final_seq, server_hash); });
@@ -97,6 +102,8 @@ TEST(Bot, TwoBotsBlastCratersAndEndHoldingTheServersWorld) {
     const io::RgbImage before = read(alpha.pngs[0]);
     const io::RgbImage after = read(alpha.pngs[1]);
     ASSERT_EQ(before.width, 320);
+    ASSERT_EQ(before.height, 200);
+    ASSERT_EQ(after.width, 320);
     ASSERT_EQ(after.height, 200);
     const double changed = testing::countDiffering(before, after, 16).fraction();
     std::printf("before/after: %.2f %% of pixels changed\n", 100.0 * changed);
@@ -142,6 +149,7 @@ TEST(Bot, ReportsRoundTripAndBadOnesAreRefusedByName) {
     r.synced = true;
     r.tessellate_ms = bot::Spread::of({3.0, 1.0, 2.0});
     r.pngs = {"a.png"};
+    r.error = "the world did not settle";
     const auto path = outputDir() / "report.json";
     ASSERT_TRUE(bot::writeReport(path, r).ok());
     auto back = bot::readReport(path);
@@ -151,6 +159,16 @@ TEST(Bot, ReportsRoundTripAndBadOnesAreRefusedByName) {
     EXPECT_EQ(back->tessellate_ms.median, 2.0);
     EXPECT_EQ(back->tessellate_ms.max, 3.0);
     EXPECT_EQ(back->pngs, r.pngs);
+    EXPECT_EQ(back->error, r.error);
+
+    // a hash that is not 16 hex digits is refused by name
+    std::string text = bot::toJson(r);
+    text.replace(text.find("fedcba9876543210"), 16, "-1");
+    std::ofstream(outputDir() / "bad_hash.json") << text;
+    auto bad_hash = bot::readReport(outputDir() / "bad_hash.json");
+    ASSERT_FALSE(bad_hash.ok());
+    EXPECT_NE(bad_hash.error().message.find("world_hash must be 16 hex digits"), std::string::npos);
+    r.error.clear();
 
     std::ofstream(outputDir() / "bad.json") << "{\"name\": \"x\", \"frames\": 1}";
     auto bad = bot::readReport(outputDir() / "bad.json");
@@ -165,6 +183,9 @@ TEST(Bot, ReportsRoundTripAndBadOnesAreRefusedByName) {
     EXPECT_FALSE(bot::printTable({r, other}, stdout));
     other = r;
     other.synced = false;
+    EXPECT_FALSE(bot::printTable({r, other}, stdout));
+    other = r;
+    other.error = "a PNG could not be written";
     EXPECT_FALSE(bot::printTable({r, other}, stdout));
 }
 

@@ -118,6 +118,7 @@ TEST_P(OffscreenRender, ACraterChangesThePixelsWhereItIsAndNoOthers) {
     const io::RgbImage before = scene.frame(camera);
     const OpEffect effect = blast(t, centre.x, centre.y, 12.0, 5.0);
     scene.tess->terrainChanged(std::span<const CellRect>(&effect.cells, 1), false);
+    scene.renderer->surfaceChanged(std::span<const CellRect>(&effect.cells, 1), false);
     const io::RgbImage after = scene.frame(camera);
     const std::string backend = render::toString(GetParam());
     ASSERT_TRUE(io::writeRgbPng(outputDir() / (backend + "_crater_before.png"), before).ok());
@@ -176,6 +177,12 @@ TEST(OffscreenBackends, OsmesaAndEglDrawTheSamePicture) {
     ASSERT_TRUE(osmesa.ok() && egl.ok());
     const roam::Camera camera = lookAt({40.0, 60.0, 70.0}, {128.0, 128.0, 30.0});
     const io::RgbImage a = osmesa.frame(camera);
+    // each context draws its own pictures, whichever was made current last
+    const roam::Camera other = lookAt({200.0, 30.0, 60.0}, {100.0, 150.0, 20.0});
+    const io::RgbImage elsewhere = egl.frame(other);
+    const io::RgbImage again = osmesa.context->readPixels();
+    EXPECT_EQ(countDiffering(again, a, 0).differing, 0);
+    EXPECT_GT(countDiffering(elsewhere, a, 16).fraction(), 0.2);
     const io::RgbImage b = egl.frame(camera);
     std::printf(
         "osmesa (%s) vs egl (%s)\n", osmesa.context->describe().c_str(),
@@ -306,6 +313,25 @@ TEST(OsmesaRender, UploadsOnlyWhatChanged) {
     (*fresh)->draw(*scene.tess, camera, options);
     const io::RgbImage rebuilt = scene.context->readPixels();
     EXPECT_EQ(countDiffering(incremental, rebuilt, 0).differing, 0);
+}
+
+// A rebuild rewrites every tile's list into the buffer it has: GPU memory stays bounded however
+// often the tessellation is rebuilt (a tau slider dragged, a window resized).
+TEST(OsmesaRender, RebuildsReuseTheIndexBuffers) {
+    Terrain t = testing::makeHills(7, 257, 257, 1.0);
+    Scene scene(t, 1.0);
+    ASSERT_TRUE(scene.ok());
+    const roam::Camera camera = lookAt({-30.0, -30.0, 80.0}, {128.0, 128.0, 30.0});
+    std::uint64_t settled = 0;
+    for (int k = 0; k < 40; ++k) {
+        scene.tess->setTau(k % 2 == 0 ? 1.0 : 3.0);
+        render::UploadStats up;
+        scene.frame(camera, &up);
+        EXPECT_GT(up.index_tiles, 0u) << k; // every frame was a rebuild
+        if (k == 3)
+            settled = scene.renderer->gpuBytes();
+    }
+    EXPECT_EQ(scene.renderer->gpuBytes(), settled);
 }
 
 } // namespace

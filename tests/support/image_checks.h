@@ -4,6 +4,7 @@
 
 #include <terrain/io/png_image.h>
 
+#include <gtest/gtest.h>
 #include <png.h>
 
 #include <algorithm>
@@ -37,6 +38,11 @@ inline PixelCount countDiffering(
     int threshold,
     const std::function<bool(int, int)>& where = [](int, int) { return true; }) {
     PixelCount n;
+    if (a.width != b.width || a.height != b.height || a.rgb.size() != b.rgb.size()) {
+        ADD_FAILURE() << "images of different sizes: " << a.width << " x " << a.height << " and "
+                      << b.width << " x " << b.height;
+        return n;
+    }
     for (int y = 0; y < a.height; ++y)
         for (int x = 0; x < a.width; ++x) {
             if (!where(x, y))

@@ -8,6 +8,7 @@
 
 #include <asio.hpp>
 #include <chrono>
+#include <fstream>
 #include <memory>
 #include <thread>
 
@@ -78,7 +79,11 @@ Result<BotReport> runBot(const BotConfig& config) {
     } stop_on_exit{*connection};
 
     const Clock::time_point join_start = Clock::now();
-    if (!pollUntil(io, config.join_timeout_seconds, [&] { return connection->synced(); })) {
+    // a final refusal (a bad token) closes the connection for good: no point waiting
+    pollUntil(io, config.join_timeout_seconds, [&] {
+        return connection->synced() || connection->state() == client::Connection::State::kClosed;
+    });
+    if (!connection->synced()) {
         const std::string why = connection->lastDisconnect();
         return makeError(
             ErrorCode::kIo, "could not join " + config.host + ":" + std::to_string(config.port) +
@@ -110,12 +115,14 @@ Result<BotReport> runBot(const BotConfig& config) {
         if (!config.png_dir.empty())
             std::filesystem::create_directories(config.png_dir);
     }
-    const auto writePng = [&](const std::string& file) -> Status {
+    // a PNG that cannot be written is reported; the run goes on
+    const auto writePng = [&](const std::string& file) {
         const std::filesystem::path path = config.png_dir / file;
         Status s = io::writeRgbPng(path, gpu.context->readPixels());
         if (s)
             report.pngs.push_back(path.string());
-        return s;
+        else if (report.error.empty())
+            report.error = s.error().message;
     };
 
     std::vector<double> tessellate_ms;
@@ -158,18 +165,13 @@ Result<BotReport> runBot(const BotConfig& config) {
     for (int f = 0; f < frames; ++f) {
         const roam::Camera camera = script.camera(f, replica.terrain());
         frame(camera);
-        if (f == 0 && gpu.terrain && !config.png_dir.empty()) {
-            Status s = writePng("before.png");
-            if (!s)
-                return s.error();
-        }
+        if (f == 0 && gpu.terrain && !config.png_dir.empty())
+            writePng("before.png");
         if (gpu.terrain && config.png_every > 0 && f % config.png_every == 0 &&
             !config.png_dir.empty()) {
             char name[32];
             std::snprintf(name, sizeof name, "frame_%05d.png", f);
-            Status s = writePng(name);
-            if (!s)
-                return s.error();
+            writePng(name);
         }
         if (f % 30 == 0)
             connection->ping();
@@ -198,17 +200,36 @@ Result<BotReport> runBot(const BotConfig& config) {
     // settle: every request answered and the op stream quiet, then the after frame from the
     // first frame's camera (so before.png and after.png compare)
     const roam::Camera first = script.camera(0, replica.terrain());
-    const bool settled = pollUntil(io, config.settle_timeout_seconds, [&] {
+    const Clock::time_point settle_start = Clock::now();
+    const auto timeLeft = [&] {
+        return config.settle_timeout_seconds - secondsSince(settle_start);
+    };
+    bool settled = pollUntil(io, timeLeft(), [&] {
         absorb();
-        return answers_pending <= 0 && secondsSince(last_op) >= config.settle_seconds &&
-               connection->synced();
+        return answers_pending <= 0;
     });
-    frame(first);
-    if (gpu.terrain && !config.png_dir.empty()) {
-        Status s = writePng("after.png");
-        if (!s)
-            return s.error();
+    if (settled && !config.barrier_dir.empty()) {
+        // every op this bot made is broadcast by now (the server acknowledges after it
+        // broadcasts): say so, and wait until every peer has said the same
+        std::filesystem::create_directories(config.barrier_dir);
+        std::ofstream(config.barrier_dir / (config.name + ".done")) << replica.seq() << "\n";
+        settled = pollUntil(io, timeLeft(), [&] {
+            absorb();
+            int done = 0;
+            std::error_code ec;
+            for (const auto& entry : std::filesystem::directory_iterator(config.barrier_dir, ec))
+                done += entry.path().extension() == ".done" ? 1 : 0;
+            return done >= config.peers;
+        });
     }
+    if (settled)
+        settled = pollUntil(io, timeLeft(), [&] {
+            absorb();
+            return secondsSince(last_op) >= config.settle_seconds && connection->synced();
+        });
+    frame(first);
+    if (gpu.terrain && !config.png_dir.empty())
+        writePng("after.png");
     report.seconds = secondsSince(run_start);
     report.frames = frames;
     report.final_seq = replica.seq();
@@ -233,10 +254,9 @@ Result<BotReport> runBot(const BotConfig& config) {
     report.op_bytes_in = connection->stats().op_bytes_in;
     report.rtt_ms = connection->roundTripSeconds() * 1000.0;
     if (!settled)
-        return makeError(
-            ErrorCode::kIo, "the world did not settle within " +
-                                seconds(config.settle_timeout_seconds) + " s (" +
-                                std::to_string(answers_pending) + " crater requests unanswered)");
+        report.error = "the world did not settle within " + seconds(config.settle_timeout_seconds) +
+                       " s (" + std::to_string(answers_pending) + " crater requests unanswered" +
+                       (config.barrier_dir.empty() ? "" : ", or peers not done") + ")";
     return report;
 }
 

@@ -75,6 +75,7 @@ std::string toJson(const BotReport& r) {
          {{"bytes_in", r.bytes_in}, {"op_bytes_in", r.op_bytes_in}, {"rtt_ms", r.rtt_ms}}},
         {"renderer", r.renderer},
         {"pngs", r.pngs},
+        {"error", r.error},
     };
     return j.dump(2) + "\n";
 }
@@ -103,10 +104,11 @@ Result<BotReport> readReport(const std::filesystem::path& path) {
         r.join_seconds = j.at("join_seconds").get<double>();
         r.final_seq = j.at("final_seq").get<std::uint64_t>();
         const std::string hash = j.at("world_hash").get<std::string>();
-        std::size_t used = 0;
-        r.world_hash = std::stoull(hash, &used, 16);
-        if (used != hash.size())
-            return makeError(ErrorCode::kBadFormat, path.string() + ": world_hash is not hex");
+        if (hash.size() != 16 ||
+            hash.find_first_not_of("0123456789abcdefABCDEF") != std::string::npos)
+            return makeError(
+                ErrorCode::kBadFormat, path.string() + ": world_hash must be 16 hex digits");
+        r.world_hash = std::stoull(hash, nullptr, 16);
         r.synced = j.at("synced").get<bool>();
         r.ops_applied = j.at("ops_applied").get<std::uint64_t>();
         r.hash_mismatches = j.at("hash_mismatches").get<std::uint64_t>();
@@ -133,6 +135,7 @@ Result<BotReport> readReport(const std::filesystem::path& path) {
         r.rtt_ms = n.at("rtt_ms").get<double>();
         r.renderer = j.at("renderer").get<std::string>();
         r.pngs = j.at("pngs").get<std::vector<std::string>>();
+        r.error = j.at("error").get<std::string>();
         return r;
     } catch (const std::exception& e) {
         // nlohmann names the missing key or the type it expected
@@ -159,9 +162,12 @@ bool printTable(const std::vector<BotReport>& reports, std::FILE* out) {
             static_cast<double>(r.op_bytes_in) / 1024.0);
     }
     bool agree = !reports.empty();
-    for (const BotReport& r : reports)
-        agree = agree && r.synced && r.final_seq == reports.front().final_seq &&
+    for (const BotReport& r : reports) {
+        if (!r.error.empty())
+            std::fprintf(out, "%s: %s\n", r.name.c_str(), r.error.c_str());
+        agree = agree && r.synced && r.error.empty() && r.final_seq == reports.front().final_seq &&
                 r.world_hash == reports.front().world_hash;
+    }
     if (agree)
         std::fprintf(
             out,

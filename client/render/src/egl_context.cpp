@@ -63,8 +63,9 @@ Result<std::unique_ptr<EglContext>> EglContext::create(int width, int height) {
     c->context_ = eglCreateContext(display, config, EGL_NO_CONTEXT, context_attributes);
     if (c->context_ == EGL_NO_CONTEXT)
         return makeError(ErrorCode::kUnsupported, eglFailure("eglCreateContext (3.3 core)"));
-    if (eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, c->context_) != EGL_TRUE)
+    if (!c->bindToThread())
         return makeError(ErrorCode::kUnsupported, eglFailure("eglMakeCurrent (no surface)"));
+    c->makeCurrent();
     Status loaded = c->gl_.load(
         [](const char* name, void*) { return loaderPointer(eglGetProcAddress(name)); }, nullptr);
     if (!loaded)
@@ -89,9 +90,18 @@ Result<std::unique_ptr<EglContext>> EglContext::create(int width, int height) {
     return c;
 }
 
+bool EglContext::bindToThread() const {
+    // glvnd skips eglMakeCurrent of the context it believes current; but an OSMesa context made
+    // current since then took Mesa's dispatch (libglapi) away from it. Releasing first makes the
+    // switch real.
+    eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+    return eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_) == EGL_TRUE;
+}
+
 EglContext::~EglContext() {
+    forgetCurrent();
     if (context_ != nullptr) {
-        if (framebuffer_ != 0) {
+        if (framebuffer_ != 0 && bindToThread()) {
             gl_.DeleteFramebuffers(1, &framebuffer_);
             gl_.DeleteRenderbuffers(1, &colour_);
             gl_.DeleteRenderbuffers(1, &depth_);

@@ -11,11 +11,30 @@ std::string glString(const GlApi& gl, GLenum name) {
 }
 } // namespace
 
+namespace {
+// the context this thread made current through makeCurrent()
+thread_local const GlContext* current_context = nullptr;
+} // namespace
+
+void GlContext::makeCurrent() const {
+    if (current_context == this)
+        return;
+    if (bindToThread())
+        current_context = this;
+}
+
+void GlContext::forgetCurrent() const {
+    if (current_context == this)
+        current_context = nullptr;
+}
+
 std::string GlContext::describe() const {
+    makeCurrent();
     return glString(gl(), GL_RENDERER) + " / OpenGL " + glString(gl(), GL_VERSION);
 }
 
 io::RgbImage GlContext::readPixels() const {
+    makeCurrent();
     const GlApi& g = gl();
     io::RgbImage image;
     image.width = width();

@@ -42,7 +42,7 @@ GlfwWindow::create(int width, int height, const std::string& title, bool vsync) 
     }
     std::unique_ptr<GlfwWindow> w(new GlfwWindow());
     w->window_ = window;
-    glfwMakeContextCurrent(window);
+    w->makeCurrent();
     glfwSwapInterval(vsync ? 1 : 0);
     Status loaded = w->gl_.load(
         [](const char* name, void*) { return loaderPointer(glfwGetProcAddress(name)); }, nullptr);
@@ -51,7 +51,13 @@ GlfwWindow::create(int width, int height, const std::string& title, bool vsync) 
     return w;
 }
 
+bool GlfwWindow::bindToThread() const {
+    glfwMakeContextCurrent(window_);
+    return glfwGetCurrentContext() == window_;
+}
+
 GlfwWindow::~GlfwWindow() {
+    forgetCurrent();
     if (window_ != nullptr) {
         glfwDestroyWindow(window_);
         glfwTerminate();

@@ -98,8 +98,9 @@ Result<std::unique_ptr<OsmesaContext>> OsmesaContext::create(int width, int heig
     c->width_ = width;
     c->height_ = height;
     c->buffer_.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 4);
-    if (!c->makeCurrent())
+    if (!c->bindToThread())
         return makeError(ErrorCode::kUnsupported, "OSMesaMakeCurrent failed");
+    c->makeCurrent();
     Status loaded = c->gl_.load(
         [](const char* name, void* user) { return static_cast<Library*>(user)->get_proc(name); },
         c->library_.get());
@@ -108,11 +109,34 @@ Result<std::unique_ptr<OsmesaContext>> OsmesaContext::create(int width, int heig
     return c;
 }
 
-bool OsmesaContext::makeCurrent() {
+bool OsmesaContext::bindToThread() const {
     return library_->make_current(context_, buffer_.data(), GL_UNSIGNED_BYTE, width_, height_) != 0;
 }
 
+io::RgbImage OsmesaContext::readPixels() const {
+    makeCurrent();
+    gl_.Finish();
+    io::RgbImage image;
+    image.width = width_;
+    image.height = height_;
+    image.rgb.resize(static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_) * 3);
+    // RGBA rows, bottom row first (OSMesa's default, like GL)
+    const auto w = static_cast<std::size_t>(width_);
+    for (int y = 0; y < height_; ++y) {
+        const unsigned char* in =
+            buffer_.data() + static_cast<std::size_t>(height_ - 1 - y) * w * 4;
+        std::uint8_t* out = image.rgb.data() + static_cast<std::size_t>(y) * w * 3;
+        for (std::size_t x = 0; x < w; ++x, in += 4, out += 3) {
+            out[0] = in[0];
+            out[1] = in[1];
+            out[2] = in[2];
+        }
+    }
+    return image;
+}
+
 OsmesaContext::~OsmesaContext() {
+    forgetCurrent();
     if (context_ != nullptr)
         library_->destroy(context_);
 }

@@ -41,6 +41,7 @@ GLsizeiptr sizeOf(std::uint64_t bytes) {
 } // namespace
 
 Result<std::unique_ptr<TerrainRenderer>> TerrainRenderer::create(const GlContext& context) {
+    context.makeCurrent();
     std::unique_ptr<TerrainRenderer> r(new TerrainRenderer(context));
     Result<unsigned> program = buildProgram(r->gl_, kTerrainVertexShader, kTerrainFragmentShader);
     if (!program)
@@ -61,6 +62,7 @@ Result<std::unique_ptr<TerrainRenderer>> TerrainRenderer::create(const GlContext
 TerrainRenderer::TerrainRenderer(const GlContext& context) : context_(context), gl_(context.gl()) {}
 
 TerrainRenderer::~TerrainRenderer() {
+    context_.makeCurrent(); // the names belong to this context
     releaseTiles();
     if (program_ != 0)
         gl_.DeleteProgram(program_);
@@ -84,6 +86,7 @@ std::uint64_t TerrainRenderer::gpuBytes() const {
 }
 
 UploadStats TerrainRenderer::sync(roam::Tessellator& tess, const Terrain& terrain) {
+    context_.makeCurrent();
     UploadStats stats;
     if (!have_spec_ || !(terrain.spec() == spec_) ||
         tiles_.size() != static_cast<std::size_t>(tess.tileCount())) {
@@ -246,12 +249,17 @@ void TerrainRenderer::uploadVertices(
         // step (a cell on the base grid, a lattice step inside a detail block)
         const bool on_base_grid = i < static_cast<std::uint32_t>(roam::kTileBaseVertices);
         const double step = on_base_grid ? spacing : per_lattice;
+        // (one-sided at the map's edge, where the surface is clamped)
+        const double x0 = std::max(x - step, 0.0);
+        const double x1 = std::min(x + step, spec_.extentX());
+        const double y0 = std::max(y - step, 0.0);
+        const double y1 = std::min(y + step, spec_.extentY());
         const double dzdx =
-            (surfaceHeight(terrain, x + step, y) - surfaceHeight(terrain, x - step, y)) /
-            (2.0 * step);
+            x1 > x0 ? (surfaceHeight(terrain, x1, y) - surfaceHeight(terrain, x0, y)) / (x1 - x0)
+                    : 0.0;
         const double dzdy =
-            (surfaceHeight(terrain, x, y + step) - surfaceHeight(terrain, x, y - step)) /
-            (2.0 * step);
+            y1 > y0 ? (surfaceHeight(terrain, x, y1) - surfaceHeight(terrain, x, y0)) / (y1 - y0)
+                    : 0.0;
         const double inv = 1.0 / std::sqrt(dzdx * dzdx + dzdy * dzdy + 1.0);
         scratch_vertices_[i].normal = packNormal(-dzdx * inv, -dzdy * inv, inv);
     }
@@ -308,10 +316,12 @@ void TerrainRenderer::uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, Uploa
     gl_.BindVertexArray(tb.vao);
     std::uint64_t bytes = 0;
     if (mesh.rewritten() || !tb.has_indices || slots > tb.index_capacity_slots) {
-        // grow by half again so a growing list is not reallocated every frame
-        const std::uint32_t capacity =
-            std::max({slots, tb.index_capacity_slots + tb.index_capacity_slots / 2, 64u});
-        if (capacity != tb.index_capacity_slots) {
+        // reallocate only to grow (a rewrite reuses the buffer), by half again so a growing list
+        // is not reallocated every frame
+        if (slots > tb.index_capacity_slots || !tb.has_indices) {
+            const std::uint64_t grown = std::uint64_t{tb.index_capacity_slots} * 3 / 2;
+            const auto capacity =
+                static_cast<std::uint32_t>(std::max<std::uint64_t>({slots, grown, 64u}));
             gl_.BufferData(
                 GL_ELEMENT_ARRAY_BUFFER, sizeOf(std::uint64_t{capacity} * kIndexBytesPerSlot),
                 nullptr, GL_DYNAMIC_DRAW);
@@ -356,6 +366,7 @@ void TerrainRenderer::uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, Uploa
 
 DrawStats TerrainRenderer::draw(
     const roam::Tessellator& tess, const roam::Camera& camera, const RenderOptions& options) {
+    context_.makeCurrent();
     DrawStats stats;
     const GlApi& gl = gl_;
     gl.Viewport(0, 0, context_.width(), context_.height());
@@ -373,8 +384,11 @@ DrawStats TerrainRenderer::draw(
     const glm::dvec3 forward = glm::normalize(camera.forward);
     const glm::mat4 view = glm::lookAt(glm::vec3(0.0f), glm::vec3(forward), glm::vec3(camera.up));
     const double diagonal = std::hypot(spec_.extentX(), spec_.extentY());
-    const double reach =
-        diagonal + std::abs(camera.eye.z) + std::max(std::abs(height_lo_), std::abs(height_hi_));
+    // the farthest map corner from the eye, wherever the eye is
+    const double off_map =
+        std::hypot(camera.eye.x - 0.5 * spec_.extentX(), camera.eye.y - 0.5 * spec_.extentY());
+    const double reach = diagonal + off_map + std::abs(camera.eye.z) +
+                         std::max(std::abs(height_lo_), std::abs(height_hi_));
     const float aspect = static_cast<float>(camera.viewport_width) /
                          static_cast<float>(std::max(camera.viewport_height, 1));
     const glm::mat4 projection = glm::perspective(

@@ -33,11 +33,17 @@ struct BotConfig {
     /// crater request was answered.
     double settle_seconds = 1.5;
     double settle_timeout_seconds = 60.0;
+    /// Bots started together can wait for each other before settling, so they end at the same
+    /// seq: each writes `<name>.done` here once its own craters are answered, and settles only
+    /// when `peers` such files exist (itself included). Empty: no barrier.
+    std::filesystem::path barrier_dir;
+    int peers = 1;
 };
 
-/// Errors: kIo when it cannot join or settle in time (the message says which and why);
-/// kUnsupported when rendering was asked for and no offscreen context could be made; the
-/// renderer's and PNG writer's errors.
+/// Errors: kIo when it cannot join (the message says why); kUnsupported when rendering was asked
+/// for and no offscreen context could be made; the renderer's errors. A run that joined always
+/// returns its report: what went wrong after that (no settling in time, a PNG not written) is in
+/// its `error`.
 Result<BotReport> runBot(const BotConfig& config);
 
 } // namespace terrain::bot

@@ -51,6 +51,7 @@ struct BotReport {
     double rtt_ms = 0.0;
     std::string renderer; ///< GL renderer string, empty without rendering
     std::vector<std::string> pngs;
+    std::string error; ///< empty when the run went as scripted
 };
 
 std::string toJson(const BotReport& report);
@@ -58,8 +59,8 @@ std::string toJson(const BotReport& report);
 Result<BotReport> readReport(const std::filesystem::path& path);
 Status writeReport(const std::filesystem::path& path, const BotReport& report);
 
-/// Prints one row per report and the verdict; true when every report holds the same seq and
-/// world hash and none saw a mismatch it did not repair.
+/// Prints one row per report and the verdict; true when every report is synced, has no error,
+/// and holds the same seq and world hash.
 bool printTable(const std::vector<BotReport>& reports, std::FILE* out);
 
 } // namespace terrain::bot

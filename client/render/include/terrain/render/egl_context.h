@@ -24,6 +24,9 @@ class EglContext final : public GlContext {
     int height() const override { return height_; }
     void present() override { gl_.Finish(); }
 
+  protected:
+    bool bindToThread() const override;
+
   private:
     EglContext() = default;
     void* display_ = nullptr;

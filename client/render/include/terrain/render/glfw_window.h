@@ -29,6 +29,9 @@ class GlfwWindow final : public GlContext {
     GLFWwindow* handle() const { return window_; }
     bool shouldClose() const;
 
+  protected:
+    bool bindToThread() const override;
+
   private:
     GlfwWindow() = default;
     GLFWwindow* window_ = nullptr;

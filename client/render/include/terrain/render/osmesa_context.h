@@ -25,8 +25,11 @@ class OsmesaContext final : public GlContext {
     int width() const override { return width_; }
     int height() const override { return height_; }
     void present() override { gl_.Finish(); }
-    /// Makes this context current on the calling thread (create() already did).
-    bool makeCurrent();
+    /// Straight from the memory OSMesa draws into (complete after glFinish).
+    io::RgbImage readPixels() const override;
+
+  protected:
+    bool bindToThread() const override;
 
   private:
     struct Library;
@@ -36,7 +39,7 @@ class OsmesaContext final : public GlContext {
     void* context_ = nullptr;
     int width_ = 0;
     int height_ = 0;
-    std::vector<unsigned char> buffer_;
+    mutable std::vector<unsigned char> buffer_; // written by GL, not by this class
     GlApi gl_;
 };
 

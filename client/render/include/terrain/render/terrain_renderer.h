@@ -73,9 +73,10 @@ class TerrainRenderer {
     /// `terrain` is the surface `tess` was built on (normals come from it).
     UploadStats sync(roam::Tessellator& tess, const Terrain& terrain);
     /// Where the surface changed (the replica's dirty cells; `all` for a snapshot), before the
-    /// next sync(): vertices there get new normals even where no vertex height changed (a change
-    /// below a height's rounding still turns the surface). Vertices whose position or height
-    /// changed are found without it.
+    /// next sync(). Required for exact normals: vertices within a cell of a change get new ones,
+    /// in every tile (a tile's edge vertex samples its neighbour's cells), even where no vertex
+    /// moved (a change below a height's rounding, or a float's). Without it only vertices
+    /// that moved, and their tile's vertices within a cell of them, are redone.
     void surfaceChanged(std::span<const CellRect> cells, bool all);
     /// Clears to the sky and draws the visible tiles as seen by `camera` into the whole
     /// framebuffer.
