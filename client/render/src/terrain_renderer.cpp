@@ -247,19 +247,38 @@ void TerrainRenderer::uploadVertices(
         const double y = v.position.y * per_lattice;
         // a smooth normal from the true surface: central differences over the vertex's own grid
         // step (a cell on the base grid, a lattice step inside a detail block)
-        const bool on_base_grid = i < static_cast<std::uint32_t>(roam::kTileBaseVertices);
-        const double step = on_base_grid ? spacing : per_lattice;
         // (one-sided at the map's edge, where the surface is clamped)
-        const double x0 = std::max(x - step, 0.0);
-        const double x1 = std::min(x + step, spec_.extentX());
-        const double y0 = std::max(y - step, 0.0);
-        const double y1 = std::min(y + step, spec_.extentY());
-        const double dzdx =
-            x1 > x0 ? (surfaceHeight(terrain, x1, y) - surfaceHeight(terrain, x0, y)) / (x1 - x0)
-                    : 0.0;
-        const double dzdy =
-            y1 > y0 ? (surfaceHeight(terrain, x, y1) - surfaceHeight(terrain, x, y0)) / (y1 - y0)
-                    : 0.0;
+        double dzdx = 0.0;
+        double dzdy = 0.0;
+        if (i < static_cast<std::uint32_t>(roam::kTileBaseVertices)) {
+            // on the base grid the surface at the neighbouring vertices is their sample (patch
+            // corners are pinned to them): read the samples, no surface queries; the padding
+            // takes the map edge's slope
+            const std::int32_t gx = std::min(v.position.x / roam::kLatticePerCell, spec_.width - 1);
+            const std::int32_t gy =
+                std::min(v.position.y / roam::kLatticePerCell, spec_.height - 1);
+            const std::int32_t ax = std::max(gx - 1, 0);
+            const std::int32_t bx = std::min(gx + 1, spec_.width - 1);
+            const std::int32_t ay = std::max(gy - 1, 0);
+            const std::int32_t by = std::min(gy + 1, spec_.height - 1);
+            const double unit = spec_.metresPerUnit();
+            if (bx > ax)
+                dzdx = (terrain.sample(bx, gy) - terrain.sample(ax, gy)) * unit /
+                       ((bx - ax) * spacing);
+            if (by > ay)
+                dzdy = (terrain.sample(gx, by) - terrain.sample(gx, ay)) * unit /
+                       ((by - ay) * spacing);
+        } else {
+            const double step = per_lattice;
+            const double x0 = std::max(x - step, 0.0);
+            const double x1 = std::min(x + step, spec_.extentX());
+            const double y0 = std::max(y - step, 0.0);
+            const double y1 = std::min(y + step, spec_.extentY());
+            if (x1 > x0)
+                dzdx = (surfaceHeight(terrain, x1, y) - surfaceHeight(terrain, x0, y)) / (x1 - x0);
+            if (y1 > y0)
+                dzdy = (surfaceHeight(terrain, x, y1) - surfaceHeight(terrain, x, y0)) / (y1 - y0);
+        }
         const double inv = 1.0 / std::sqrt(dzdx * dzdx + dzdy * dzdy + 1.0);
         scratch_vertices_[i].normal = packNormal(-dzdx * inv, -dzdy * inv, inv);
     }
