@@ -133,11 +133,10 @@ Result<BotReport> runBot(const BotConfig& config) {
     std::vector<double> uploads;
     // what the replica changed goes to the tessellator and, for normals, to the renderer
     const auto absorb = [&] {
-        const client::DirtySet dirty = replica.takeDirty();
-        if (!client::feedChanges(dirty, replica.terrain().spec(), tess) || !gpu.terrain)
-            return;
-        gpu.terrain->surfaceChanged(
-            client::changedCells(dirty, replica.terrain().spec()), dirty.all);
+        const client::SurfaceChanges changes =
+            client::surfaceChanges(replica.takeDirty(), replica.terrain().spec());
+        if (client::feedChanges(changes, tess) && gpu.terrain)
+            gpu.terrain->surfaceChanged(changes.cells, changes.all);
     };
     const auto frame = [&](const roam::Camera& camera) {
         const Clock::time_point t0 = Clock::now();

@@ -5,6 +5,15 @@
 namespace terrain::render {
 
 namespace {
+/// The info log of a shader or program (GetShaderInfoLog or GetProgramInfoLog).
+template <typename GetLog> std::string infoLog(GLuint object, GetLog get_log) {
+    std::string log(4096, '\0');
+    GLsizei length = 0;
+    get_log(object, static_cast<GLsizei>(log.size()), &length, log.data());
+    log.resize(static_cast<std::size_t>(length));
+    return log;
+}
+
 Result<GLuint> compile(const GlApi& gl, GLenum kind, const char* source, const char* what) {
     const GLuint shader = gl.CreateShader(kind);
     gl.ShaderSource(shader, 1, &source, nullptr);
@@ -13,10 +22,7 @@ Result<GLuint> compile(const GlApi& gl, GLenum kind, const char* source, const c
     gl.GetShaderiv(shader, GL_COMPILE_STATUS, &ok);
     if (ok == GL_TRUE)
         return shader;
-    std::string log(4096, '\0');
-    GLsizei length = 0;
-    gl.GetShaderInfoLog(shader, static_cast<GLsizei>(log.size()), &length, log.data());
-    log.resize(static_cast<std::size_t>(length));
+    const std::string log = infoLog(shader, gl.GetShaderInfoLog);
     gl.DeleteShader(shader);
     return makeError(ErrorCode::kUnsupported, std::string(what) + " shader: " + log);
 }
@@ -42,10 +48,7 @@ buildProgram(const GlApi& gl, const char* vertex_source, const char* fragment_so
     gl.GetProgramiv(program, GL_LINK_STATUS, &ok);
     if (ok == GL_TRUE)
         return program;
-    std::string log(4096, '\0');
-    GLsizei length = 0;
-    gl.GetProgramInfoLog(program, static_cast<GLsizei>(log.size()), &length, log.data());
-    log.resize(static_cast<std::size_t>(length));
+    const std::string log = infoLog(program, gl.GetProgramInfoLog);
     gl.DeleteProgram(program);
     return makeError(ErrorCode::kUnsupported, "shader link: " + log);
 }

@@ -362,10 +362,10 @@ Status Viewer::loop() {
 
         // the network first, so this frame shows every op that has arrived
         pollNetwork();
-        const client::DirtySet dirty = replica_.takeDirty();
-        if (client::feedChanges(dirty, replica_.terrain().spec(), *tess_))
-            renderer_->surfaceChanged(
-                client::changedCells(dirty, replica_.terrain().spec()), dirty.all);
+        const client::SurfaceChanges changes =
+            client::surfaceChanges(replica_.takeDirty(), replica_.terrain().spec());
+        if (client::feedChanges(changes, *tess_))
+            renderer_->surfaceChanged(changes.cells, changes.all);
         const Terrain& terrain = replica_.terrain();
 
         camera_->speed = controls_.speed;

@@ -10,13 +10,19 @@
 
 namespace terrain::client {
 
-/// The cells `dirty` covers: ops' rectangles, then repaired tiles as theirs (empty for a
-/// snapshot: `dirty.all` says everything). The renderer's surfaceChanged() takes the same.
-std::vector<CellRect> changedCells(const DirtySet& dirty, const WorldSpec& spec);
+/// What the replica changed, as the tessellator and the renderer take it: cell rectangles (ops'
+/// own, then repaired tiles as theirs), or `all` after a snapshot (no rectangles then).
+struct SurfaceChanges {
+    std::vector<CellRect> cells;
+    bool all = false;
+    bool any() const { return all || !cells.empty(); }
+};
 
-/// Hands `dirty` (from Replica::takeDirty) to `tess`, built on the replica's terrain. Repaired
-/// tiles become their cell rectangles; a snapshot resets the tessellator (which adopts a new
-/// world's size). Returns false when nothing changed.
-bool feedChanges(const DirtySet& dirty, const WorldSpec& spec, roam::Tessellator& tess);
+SurfaceChanges surfaceChanges(const DirtySet& dirty, const WorldSpec& spec);
+
+/// Hands `changes` to `tess`, built on the replica's terrain (a snapshot resets it: it adopts a
+/// new world's size). Returns changes.any(); a renderer then takes the same changes
+/// (TerrainRenderer::surfaceChanged).
+bool feedChanges(const SurfaceChanges& changes, roam::Tessellator& tess);
 
 } // namespace terrain::client
