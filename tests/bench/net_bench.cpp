@@ -557,8 +557,8 @@ std::vector<OpRequest> grenadeCraters(const WorldSpec& spec, int count, std::uin
         r.x = px(rng);
         r.y = py(rng);
         r.radius = radius(rng);
-        r.height = depth(rng);
-        r.strength = 0.25; // rim ratio
+        r.height = std::min(r.radius, depth(rng)); // at most as deep as wide
+        r.strength = 0.25;                         // rim ratio
         ops.push_back(r);
     }
     return ops;

@@ -221,7 +221,7 @@ TEST(Session, BadPeersGetAStatedReasonAndOthersAreUnaffected) {
          },
          pb::REASON_BAD_FRAME},
         {"zero-length frame", [](RawPeer& p) { p.sendBytes({0x00}); }, pb::REASON_BAD_FRAME},
-        {"wrong version", [](RawPeer& p) { p.sendHello(token(2, Role::kViewer), 2); },
+        {"a v1 client", [](RawPeer& p) { p.sendHello(token(2, Role::kViewer), 1); },
          pb::REASON_BAD_VERSION},
         {"bad token", [](RawPeer& p) { p.sendHello("v1.2.viewer.99999999999.00"); },
          pb::REASON_BAD_TOKEN},

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 #include <unistd.h>
+#include <xxhash.h>
 
 #include <algorithm>
 #include <cstdint>
@@ -151,6 +152,21 @@ TEST(RecordCodec, roundTripsAndRejectsEachBadInput) {
     EXPECT_EQ(*decodeSegmentHeader(header), 42u);
     header[5] ^= 1;
     EXPECT_FALSE(decodeSegmentHeader(header).ok());
+    // a version 1 segment (v1 craters), checksum intact, is refused by name
+    std::vector<std::uint8_t> v1;
+    appendSegmentHeader(42, v1);
+    v1[4] = 1;
+    const std::uint64_t sum = XXH3_64bits(v1.data(), 16);
+    for (int b = 0; b < 8; ++b)
+        v1[static_cast<std::size_t>(16 + b)] = static_cast<std::uint8_t>(sum >> (8 * b));
+    const auto refused = decodeSegmentHeader(v1);
+    ASSERT_FALSE(refused.ok());
+    EXPECT_EQ(refused.error().code, ErrorCode::kUnsupported);
+    EXPECT_NE(
+        refused.error().message.find("journal segment version 1 is not supported"),
+        std::string::npos);
+    EXPECT_NE(refused.error().message.find("reads version 2"), std::string::npos)
+        << refused.error().message;
 }
 
 TEST_F(JournalTest, roundTripsTwoHundredCratersToTheSameSeqAndHash) {

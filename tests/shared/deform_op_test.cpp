@@ -1,6 +1,7 @@
 #include "support/terrain_builders.h"
 
 #include <terrain/deform_op.h>
+#include <terrain/pointwise_op.h>
 
 #include <gtest/gtest.h>
 
@@ -116,10 +117,11 @@ TEST(DeformOp, quantizationRoundsToTheNearestQuantum) {
 }
 
 TEST(DeformOp, craterProfileHasBowlRimAndEjecta) {
+    // on flat ground at 0 the crater is its profile: bowl, rim at R, ejecta falling to 0 at 2R
     DeformOp op{OpKind::kCrater, 0, 0, 1024, 1024, kUnitStrength / 4};
+    const PointwiseOp f(op, BlastGround{});
     const auto at = [&](double r_m) {
-        return pointwiseHeight(op, static_cast<std::int64_t>(r_m * 1024 * 48), 0, 0) / 48.0 /
-               1024.0;
+        return f.height(static_cast<std::int64_t>(r_m * 1024 * 48), 0, 0, 0) / 48.0 / 1024.0;
     };
     EXPECT_NEAR(at(0.0), -1.0, 1e-4);
     EXPECT_NEAR(at(1.0), 0.25, 1e-3);   // rim
@@ -127,6 +129,16 @@ TEST(DeformOp, craterProfileHasBowlRimAndEjecta) {
     EXPECT_EQ(at(2.0), 0.0);
     EXPECT_EQ(at(5.0), 0.0);
     EXPECT_LT(at(0.5), 0.0);
+}
+
+TEST(DeformOp, craterDeeperThanItsRadiusIsRefusedByName) {
+    const Terrain t = testing::makeFlat(65, 65);
+    auto op = quantizeOp({OpKind::kCrater, 30, 30, 2.0, 2.5, 0.25}, t.spec());
+    ASSERT_FALSE(op.ok());
+    EXPECT_EQ(op.error().code, ErrorCode::kOutOfRange);
+    EXPECT_NE(op.error().message.find("crater depth (at most the radius)"), std::string::npos)
+        << op.error().message;
+    EXPECT_TRUE(quantizeOp({OpKind::kCrater, 30, 30, 2.0, 2.0, 0.25}, t.spec()).ok());
 }
 
 } // namespace

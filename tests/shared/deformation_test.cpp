@@ -3,6 +3,7 @@
 
 #include <terrain/deform_op.h>
 #include <terrain/patch_decision.h>
+#include <terrain/pointwise_op.h>
 #include <terrain/surface_query.h>
 #include <terrain/terrain.h>
 
@@ -169,15 +170,16 @@ namespace terrain {
 namespace {
 
 // A base cell's corners after a pointwise op, as Terrain::apply computes them.
-CellCorners cornersAfter(
-    const DeformOp& op, std::int32_t cx, std::int32_t cy, const CellCorners& co, std::int64_t h) {
-    auto moved = [&](std::int32_t x, std::int32_t y, std::int32_t z) {
-        return clampHeight(
-            roundDiv(pointwiseHeight(op, x * h * 48, y * h * 48, std::int64_t{z} * 48), 48));
+CellCorners cornersAfter(const PointwiseOp& f, const Terrain& t, std::int32_t cx, std::int32_t cy) {
+    const std::int64_t h = t.spec().spacing;
+    auto moved = [&](std::int32_t x, std::int32_t y) {
+        return clampHeight(roundDiv(
+            f.height(
+                x * h * 48, y * h * 48, std::int64_t{t.sample(x, y)} * 48,
+                std::int64_t{t.original(x, y)} * 48),
+            48));
     };
-    return {
-        moved(cx, cy, co.h00), moved(cx + 1, cy, co.h10), moved(cx, cy + 1, co.h01),
-        moved(cx + 1, cy + 1, co.h11)};
+    return {moved(cx, cy), moved(cx + 1, cy), moved(cx, cy + 1), moved(cx + 1, cy + 1)};
 }
 
 // The prefilter may only skip cells that the exhaustive 289-point check would also leave
@@ -185,8 +187,17 @@ CellCorners cornersAfter(
 TEST(PatchDecision, curvaturePrefilterNeverSkipsACellThatNeedsAPatch) {
     std::mt19937 rng(77);
     std::uniform_real_distribution<double> unit(0.0, 1.0);
-    const Terrain t = testing::makeHills(61, 130, 130);
+    Terrain t = testing::makeHills(61, 130, 130);
     const WorldSpec& spec = t.spec();
+    // half the ground already cratered: the regimes, the floor and the ceiling all come into play
+    CraterSeries earlier;
+    earlier.seed = 9;
+    earlier.count = 80;
+    earlier.min_radius = 2;
+    earlier.max_radius = 8;
+    earlier.depth_ratio = 0.6;
+    earlier.rim_ratio = 0.4;
+    testing::applyAll(t, randomCraters(spec, earlier));
     int skipped = 0;
     int needed = 0;
     for (int n = 0; n < 400; ++n) {
@@ -202,6 +213,7 @@ TEST(PatchDecision, curvaturePrefilterNeverSkipsACellThatNeedsAPatch) {
         if (std::abs(r.height) < 0.01)
             r.height = 0.05;
         const DeformOp op = *quantizeOp(r, spec);
+        const PointwiseOp f(op, t);
         const std::int64_t tol = 4 + static_cast<std::int64_t>(unit(rng) * 200);
         const std::int64_t h = spec.spacing;
         for (int k = 0; k < 12; ++k) {
@@ -211,11 +223,14 @@ TEST(PatchDecision, curvaturePrefilterNeverSkipsACellThatNeedsAPatch) {
                 (op.center_y / h) + (unit(rng) - 0.5) * 2.2 * op.radius / h);
             if (cx < 0 || cy < 0 || cx >= spec.cellsX() || cy >= spec.cellsY())
                 continue;
+            if (t.findPatch(cx, cy) != nullptr)
+                continue; // the prefilter is for base cells
             const CellCorners co = t.corners(cx, cy);
-            const CellCorners cn = cornersAfter(op, cx, cy, co, h);
-            const bool exhaustive = baseCellNeedsPatchExhaustive(op, cx, cy, co, cn, h, tol);
+            const CellCorners oc = t.originalCorners(cx, cy);
+            const CellCorners cn = cornersAfter(f, t, cx, cy);
+            const bool exhaustive = baseCellNeedsPatchExhaustive(f, cx, cy, co, cn, oc, h, tol);
             needed += exhaustive;
-            if (curvatureFitsTolerance(op, cx, cy, h, tol)) {
+            if (curvatureFitsTolerance(f, cx, cy, co, oc, h, tol)) {
                 ++skipped;
                 EXPECT_FALSE(exhaustive)
                     << describe(op, spec) << " cell " << cx << "," << cy << " tol " << tol;
@@ -251,8 +266,9 @@ TEST(Deformation, largeSpacingAndMaximumRadiusStayInRange) {
     op.center_x = 2 * h - 2 * std::int64_t{op.radius} + 1;
     op.center_y = h + 1;
     ASSERT_TRUE(t.apply(op).ok());
+    // the bowl's floor, and the rim at most twice its nominal height
     const std::int64_t lo = -std::int64_t{op.height} - 4096;
-    const std::int64_t hi = op.height / 4 + 4096;
+    const std::int64_t hi = op.height / 2 + 4096;
     for (std::int32_t tile = 0; tile < s.tileCount(); ++tile)
         for (const PatchEntry& e : t.tilePatches(tile))
             for (std::int32_t c : e.patch.control) {
@@ -296,9 +312,13 @@ TEST(PatchDecision, prefilterHoldsForDeepWideCraters) {
     const std::int64_t h = spec.spacing;
     int skipped = 0;
     for (int n = 0; n < 40; ++n) {
-        OpRequest r{OpKind::kCrater,     150 + unit(rng) * 100, 150 + unit(rng) * 100,
-                    64 + unit(rng) * 64, 200 + unit(rng) * 800, unit(rng) * 0.5};
+        // deep: up to the radius (the most a crater may be)
+        OpRequest r{
+            OpKind::kCrater, 150 + unit(rng) * 100, 150 + unit(rng) * 100, 64 + unit(rng) * 64, 0.0,
+            unit(rng) * 0.5};
+        r.height = r.radius * (0.5 + 0.5 * unit(rng));
         const DeformOp op = *quantizeOp(r, spec);
+        const PointwiseOp f(op, t);
         for (int k = 0; k < 60; ++k) {
             const std::int32_t cx = static_cast<std::int32_t>(
                 op.center_x / h + (unit(rng) - 0.5) * 3.8 * op.radius / h);
@@ -307,11 +327,11 @@ TEST(PatchDecision, prefilterHoldsForDeepWideCraters) {
             if (cx < 0 || cy < 0 || cx >= spec.cellsX() || cy >= spec.cellsY())
                 continue;
             const CellCorners co = t.corners(cx, cy);
-            const CellCorners cn = cornersAfter(op, cx, cy, co, h);
-            if (curvatureFitsTolerance(op, cx, cy, h, spec.patch_tolerance)) {
+            const CellCorners cn = cornersAfter(f, t, cx, cy);
+            if (curvatureFitsTolerance(f, cx, cy, co, co, h, spec.patch_tolerance)) {
                 ++skipped;
                 EXPECT_FALSE(
-                    baseCellNeedsPatchExhaustive(op, cx, cy, co, cn, h, spec.patch_tolerance))
+                    baseCellNeedsPatchExhaustive(f, cx, cy, co, cn, co, h, spec.patch_tolerance))
                     << describe(op, spec) << " cell " << cx << "," << cy;
             }
         }

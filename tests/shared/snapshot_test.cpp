@@ -52,8 +52,14 @@ TEST(Snapshot, rejectsEachKindOfBadInputWithTheRule) {
         b[at] = value;
         return decodeSnapshot(b);
     };
-    EXPECT_EQ(mutate(0, 'X').error().code, ErrorCode::kBadFormat);    // magic
-    EXPECT_EQ(mutate(4, 2).error().code, ErrorCode::kUnsupported);    // version
+    EXPECT_EQ(mutate(0, 'X').error().code, ErrorCode::kBadFormat); // magic
+    EXPECT_EQ(mutate(4, 3).error().code, ErrorCode::kUnsupported); // version
+    // a version 1 snapshot (v1 craters) is refused by name
+    const auto v1 = mutate(4, 1);
+    ASSERT_FALSE(v1.ok());
+    EXPECT_EQ(v1.error().code, ErrorCode::kUnsupported);
+    EXPECT_NE(v1.error().message.find("snapshot version 1 is not supported"), std::string::npos);
+    EXPECT_NE(v1.error().message.find("reads version 2"), std::string::npos) << v1.error().message;
     EXPECT_EQ(mutate(8, 1).error().code, ErrorCode::kOutOfRange);     // width 1 breaks the spec
     EXPECT_EQ(mutate(19, 0x80).error().code, ErrorCode::kOutOfRange); // negative spacing
     auto extra = good;
@@ -108,7 +114,7 @@ TEST(Snapshot, patchThatBreaksWatertightnessIsRejectedEvenWithAConsistentHash) {
         }
     }
     Terrain bent = testing::makeFlat(65, 65);
-    bent.replaceTile(0, rec->samples, rec->patches);
+    bent.replaceTile(0, rec->samples, rec->originals, rec->patches);
     auto d = decodeSnapshot(encodeSnapshot(bent, 0));
     ASSERT_FALSE(d.ok());
     EXPECT_EQ(d.error().code, ErrorCode::kInvariantBroken);

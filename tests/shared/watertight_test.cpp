@@ -39,7 +39,7 @@ OpRequest randomOp(std::mt19937& rng, const WorldSpec& spec) {
     r.radius = 0.3 + unit(rng) * 6.0;
     if (kind < 0.7) {
         r.kind = OpKind::kCrater;
-        r.height = 0.1 + unit(rng) * 2.0;
+        r.height = std::min(r.radius, 0.1 + unit(rng) * 2.0); // at most as deep as wide
         r.strength = unit(rng) * 0.5;
     } else if (kind < 0.8) {
         r.kind = OpKind::kRaise;

@@ -81,7 +81,8 @@ Result<std::vector<std::int32_t>> Replica::applyRepair(
         return makeError(
             ErrorCode::kSizeMismatch, "repair carries a tile hash list of the wrong length");
     for (TileRecord& record : tiles) {
-        terrain_->replaceTile(record.tile, record.samples, std::move(record.patches));
+        terrain_->replaceTile(
+            record.tile, record.samples, record.originals, std::move(record.patches));
         markTile(record.tile);
     }
     // replaceTile() trusts its input: the repaired whole must keep every patch invariant

@@ -466,7 +466,8 @@ void Viewer::requestCraterAt(const roam::Camera& camera, double px, double py) {
     request.x = hit->point.x;
     request.y = hit->point.y;
     request.radius = static_cast<double>(controls_.crater_radius);
-    request.height = static_cast<double>(controls_.crater_depth);
+    // the sliders move apart; a crater is at most as deep as it is wide (the server's rule)
+    request.height = static_cast<double>(std::min(controls_.crater_depth, controls_.crater_radius));
     request.strength = kCraterRim;
     connection_->requestDeform(request);
     ++report_.craters_requested;

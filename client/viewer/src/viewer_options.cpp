@@ -55,6 +55,9 @@ Status finishViewerOptions(ViewerOptions& o) {
         return rule("--crater-radius must be > 0 (metres)");
     if (!(o.crater_depth > 0.0) || !std::isfinite(o.crater_depth))
         return rule("--crater-depth must be > 0 (metres)");
+    if (o.crater_depth > o.crater_radius)
+        return rule(
+            "--crater-depth must be at most --crater-radius (a crater is no deeper than wide)");
     if (o.frames < 0)
         return rule("--frames must be >= 0");
     if (o.auto_crater < 0)

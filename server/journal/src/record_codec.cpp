@@ -45,8 +45,10 @@ Result<std::uint64_t> decodeSegmentHeader(std::span<const std::uint8_t> bytes) {
         return makeError(ErrorCode::kHashMismatch, "segment header checksum differs");
     if (const std::uint64_t version = getLe(bytes, 4, 4); version != kSegmentVersion)
         return makeError(
-            ErrorCode::kUnsupported,
-            "segment version " + std::to_string(version) + " (supported: 1)");
+            ErrorCode::kUnsupported, "journal segment version " + std::to_string(version) +
+                                         " is not supported (this build " + "reads version " +
+                                         std::to_string(kSegmentVersion) +
+                                         ": v1 journals hold v1 craters)");
     return getLe(bytes, 8, 8);
 }
 

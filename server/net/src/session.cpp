@@ -161,7 +161,8 @@ void Session::onHello(const pb::Hello& hello) {
     if (hello.protocol_version() != wire::kProtocolVersion) {
         close(
             pb::REASON_BAD_VERSION, "protocol version " + std::to_string(hello.protocol_version()) +
-                                        " is not supported (this server speaks 1)");
+                                        " is not supported (this server speaks " +
+                                        std::to_string(wire::kProtocolVersion) + ")");
         return;
     }
     Result<TokenClaims> claims =

@@ -9,21 +9,6 @@ namespace {
 
 constexpr std::int64_t kOne = kUnitStrength; // 1.0 in 16.16
 
-// Radius as a share of R in 16.16 (t = r / R), from squared distance in 1/48 quanta.
-std::int64_t radiusRatio(std::int64_t r2, std::int64_t radius48) {
-    return static_cast<std::int64_t>(isqrt(static_cast<std::uint64_t>(r2)) << 16) / radius48;
-}
-
-// Squared distance in (1/48 quanta)^2. An axis offset beyond twice the radius lies outside every
-// footprint, so offsets are clamped there first: the result then stays below 2^61 whatever the
-// map spacing (radius <= 2^23 quanta).
-std::int64_t squaredDistance(const DeformOp& op, std::int64_t x48, std::int64_t y48) {
-    const std::int64_t cap = 2 * std::int64_t{op.radius} * kFineScale + 1;
-    const std::int64_t dx = std::min(absI64(x48 - op.center_x * kFineScale), cap);
-    const std::int64_t dy = std::min(absI64(y48 - op.center_y * kFineScale), cap);
-    return dx * dx + dy * dy;
-}
-
 Error outOfRange(const char* what, double value, double lo, double hi, const char* unit) {
     char buf[256];
     std::snprintf(buf, sizeof buf, "%s must be in [%g, %g] %s, got %g", what, lo, hi, unit, value);
@@ -84,8 +69,10 @@ Status validateOp(const DeformOp& op, const WorldSpec& spec) {
     const auto max_height = static_cast<std::int32_t>(kMaxOpHeightMetres * spec.units_per_metre);
     switch (op.kind) {
     case OpKind::kCrater:
-        if (op.height < 1 || op.height > max_height)
-            return outOfRange("crater depth", op.height * m, m, max_height * m, "m");
+        if (op.height < 1 || op.height > max_height || op.height > op.radius)
+            return outOfRange(
+                "crater depth (at most the radius)", op.height * m, m,
+                std::min(max_height, op.radius) * m, "m");
         if (op.strength < 0 || op.strength > kUnitStrength)
             return outOfRange("crater rim ratio", op.strength / double(kOne), 0, 1, "");
         break;
@@ -160,54 +147,6 @@ std::string describe(const DeformOp& op, const WorldSpec& spec) {
         static_cast<double>(op.center_x) * m, static_cast<double>(op.center_y) * m, op.radius * m,
         op.height * m, op.strength / double(kOne));
     return buf;
-}
-
-std::int64_t fadeWeight(const DeformOp& op, std::int64_t x48, std::int64_t y48) {
-    const std::int64_t radius48 = std::int64_t{op.radius} * kFineScale;
-    const std::int64_t r2 = squaredDistance(op, x48, y48);
-    if (r2 >= radius48 * radius48)
-        return 0;
-    const std::int64_t t = radiusRatio(r2, radius48);
-    const std::int64_t w = kOne - ((t * t) >> 16);
-    return (w * w) >> 16;
-}
-
-std::int64_t
-pointwiseHeight(const DeformOp& op, std::int64_t x48, std::int64_t y48, std::int64_t z48) {
-    const std::int64_t radius48 = std::int64_t{op.radius} * kFineScale;
-    const std::int64_t r2 = squaredDistance(op, x48, y48);
-    switch (op.kind) {
-    case OpKind::kCrater: {
-        // parabolic bowl from -depth at the centre to +rim at r = R, then ejecta falling off as
-        // rim * (2 - r/R)^2 to zero (with zero slope) at r = 2R; the rim itself is a crease
-        if (r2 >= 4 * radius48 * radius48)
-            return z48;
-        const std::int64_t depth48 = std::int64_t{op.height} * kFineScale;
-        const std::int64_t rim48 = (depth48 * op.strength) >> 16;
-        const std::int64_t t = radiusRatio(r2, radius48);
-        if (t < kOne) {
-            const std::int64_t s = (t * t) >> 16;
-            return z48 - depth48 + (((depth48 + rim48) * s) >> 16);
-        }
-        const std::int64_t u = 2 * kOne - t;
-        return z48 + ((rim48 * ((u * u) >> 16)) >> 16);
-    }
-    case OpKind::kRaise: {
-        if (r2 >= radius48 * radius48)
-            return z48;
-        const std::int64_t t = radiusRatio(r2, radius48);
-        const std::int64_t w = kOne - ((t * t) >> 16);
-        return z48 + ((std::int64_t{op.height} * kFineScale * ((w * w) >> 16)) >> 16);
-    }
-    case OpKind::kFlatten: {
-        const std::int64_t a = (fadeWeight(op, x48, y48) * op.strength) >> 16;
-        const std::int64_t target48 = std::int64_t{op.height} * kFineScale;
-        return z48 + (((target48 - z48) * a) >> 16);
-    }
-    case OpKind::kSmooth:
-        break; // not pointwise; see deformation.cpp
-    }
-    return z48;
 }
 
 } // namespace terrain

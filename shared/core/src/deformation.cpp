@@ -22,6 +22,7 @@
 #include <terrain/base_cell.h>
 #include <terrain/detail_patch.h>
 #include <terrain/patch_decision.h>
+#include <terrain/pointwise_op.h>
 #include <terrain/terrain.h>
 
 #include <algorithm>
@@ -59,6 +60,8 @@ Result<OpEffect> Terrain::apply(const DeformOp& op) {
     const std::int64_t h48 = h * kFineScale;
     const std::int64_t reach = footprintRadius(op);
     const std::int64_t tol = spec_.patch_tolerance;
+    // craters survey the ground first: everything below reads the surface before the op
+    const PointwiseOp f(op, *this);
 
     OpEffect effect;
     // vertices inside the footprint's box; only they can change
@@ -99,7 +102,9 @@ Result<OpEffect> Terrain::apply(const DeformOp& op) {
                     next = z + roundDiv((sum - 4 * z) * a, 4 * std::int64_t{kUnitStrength});
                 }
             } else {
-                next = roundDiv(pointwiseHeight(op, x48, y48, z * kFineScale), kFineScale);
+                next = roundDiv(
+                    f.height(x48, y48, z * kFineScale, std::int64_t{original(x, y)} * kFineScale),
+                    kFineScale);
             }
             fresh[static_cast<size_t>((y - vr.y0) * vw + (x - vr.x0))] = clampHeight(next);
         }
@@ -114,9 +119,23 @@ Result<OpEffect> Terrain::apply(const DeformOp& op) {
             newSample(cx + 1, cy + 1)};
     };
 
-    // the op applied to a patch's controls (corners are pinned afterwards)
+    // the op applied to a patch's controls (corners are pinned afterwards). The pointwise kinds
+    // see the old surface at the Greville points: a patch's exact heights there, or, for a patch
+    // just made from the base cell, its controls (the triangles sampled there)
     auto transform = [&](DetailPatch& p, std::int32_t cx, std::int32_t cy, const CellCorners& co,
-                         const CellCorners& cn) {
+                         const CellCorners& cn, bool from_base) {
+        std::array<std::int64_t, kPatchControls> old48{};
+        if (op.kind != OpKind::kSmooth) {
+            if (from_base)
+                for (int c = 0; c < kPatchControls; ++c)
+                    old48[static_cast<size_t>(c)] =
+                        p.control[static_cast<size_t>(c)] * (kFineScale / kControlScale);
+            else
+                grevilleHeights48(p, old48);
+        }
+        // the original ground at the Greville points: the base triangles over its corners
+        const CellCorners oc = originalCorners(cx, cy);
+        const Diagonal od = cellDiagonal(cx, cy);
         std::array<std::int64_t, kPatchControls> change48{}; // pointwise ops: change at Greville
         for (int j = 0; j < kControls; ++j)
             for (int i = 0; i < kControls; ++i) {
@@ -140,9 +159,11 @@ Result<OpEffect> Terrain::apply(const DeformOp& op) {
                     p.at(i, j) = clampControl(
                         roundDiv(bilinear36(cn) + ((detail36 * (kUnitStrength - a)) >> 16), 6));
                 } else {
-                    const std::int64_t f = kFineScale / kControlScale;
+                    const std::int64_t z48 = old48[static_cast<size_t>(j * kControls + i)];
+                    const std::int64_t o48 = (kFineScale / kControlScale) *
+                                             baseHeightScaled(oc, od, gu, gv, kControlScale);
                     change48[static_cast<size_t>(j * kControls + i)] =
-                        pointwiseHeight(op, x48, y48, c6 * f) - c6 * f;
+                        f.height(x48, y48, z48, o48) - z48;
                 }
             }
         if (op.kind != OpKind::kSmooth) {
@@ -207,17 +228,22 @@ Result<OpEffect> Terrain::apply(const DeformOp& op) {
             }
     for (std::int32_t cy = cr.y0; cy <= cr.y1; ++cy)
         for (std::int32_t cx = cr.x0; cx <= cr.x1; ++cx) {
+            // a cell of the box that the footprint's disc misses keeps its patch as it is
+            const std::int64_t nx = std::clamp(op.center_x, cx * h, (cx + 1) * h) - op.center_x;
+            const std::int64_t ny = std::clamp(op.center_y, cy * h, (cy + 1) * h) - op.center_y;
+            if (nx * nx + ny * ny >= reach * reach)
+                continue;
             LocalCell& cell = at(cx, cy);
             cell.judged = true;
             const CellCorners co = corners(cx, cy);
             const CellCorners cn = newCorners(cx, cy);
             const Diagonal d = cellDiagonal(cx, cy);
             if (cell.has) {
-                transform(cell.patch, cx, cy, co, cn);
+                transform(cell.patch, cx, cy, co, cn, false);
                 cell.has = patchNeeded(cell.patch, cn, d, tol);
-            } else if (baseCellNeedsPatch(op, cx, cy, co, cn, h, tol)) {
+            } else if (baseCellNeedsPatch(f, cx, cy, co, cn, originalCorners(cx, cy), h, tol)) {
                 cell.patch = patchFromBase(co, d);
-                transform(cell.patch, cx, cy, co, cn);
+                transform(cell.patch, cx, cy, co, cn, true);
                 cell.has = true;
             }
         }
@@ -278,6 +304,7 @@ Result<OpEffect> Terrain::apply(const DeformOp& op) {
                 markVertexTiles(x, y);
             }
         }
+    std::vector<PatchChange> changes;
     for (std::int32_t cy = er.y0; cy <= er.y1; ++cy)
         for (std::int32_t cx = er.x0; cx <= er.x1; ++cx) {
             LocalCell& cell = at(cx, cy);
@@ -286,16 +313,21 @@ Result<OpEffect> Terrain::apply(const DeformOp& op) {
                 continue;
             if (old != nullptr && cell.has && old->control == cell.patch.control)
                 continue;
+            PatchChange change{tileOfCell(cx, cy), localCell(cx, cy), !cell.has, {}};
             if (cell.has) {
                 updateBounds(cell.patch, corners(cx, cy));
                 (old == nullptr ? effect.patches_created : effect.patches_changed) += 1;
-                setPatch(cx, cy, &cell.patch);
+                change.patch = cell.patch;
             } else {
                 ++effect.patches_removed;
-                setPatch(cx, cy, nullptr);
             }
-            effect.dirty_tiles.push_back(tileOfCell(cx, cy));
+            changes.push_back(change);
+            effect.dirty_tiles.push_back(change.tile);
         }
+    std::sort(changes.begin(), changes.end(), [](const PatchChange& a, const PatchChange& b) {
+        return a.tile != b.tile ? a.tile < b.tile : a.cell < b.cell;
+    });
+    applyPatchChanges(changes);
     std::sort(effect.dirty_tiles.begin(), effect.dirty_tiles.end());
     effect.dirty_tiles.erase(
         std::unique(effect.dirty_tiles.begin(), effect.dirty_tiles.end()),

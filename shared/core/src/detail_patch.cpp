@@ -194,6 +194,30 @@ void gridNumerators(const DetailPatch& p, std::array<std::int64_t, kPatchGridVer
         }
 }
 
+void grevilleHeights48(const DetailPatch& p, std::array<std::int64_t, kPatchControls>& out) {
+    using bspline::kCollocation;
+    using bspline::kControls;
+    std::array<std::int64_t, kPatchControls> rows{}; // along u first
+    for (int j = 0; j < kControls; ++j)
+        for (int i = 0; i < kControls; ++i) {
+            std::int64_t sum = 0;
+            for (int a = 0; a < kControls; ++a)
+                sum += kCollocation[static_cast<size_t>(i)][static_cast<size_t>(a)] * p.at(a, j);
+            rows[static_cast<size_t>(j * kControls + i)] = sum;
+        }
+    constexpr std::int64_t kScale = bspline::kCollocationScale * bspline::kCollocationScale;
+    for (int j = 0; j < kControls; ++j)
+        for (int i = 0; i < kControls; ++i) {
+            std::int64_t sum = 0;
+            for (int b = 0; b < kControls; ++b)
+                sum += kCollocation[static_cast<size_t>(j)][static_cast<size_t>(b)] *
+                       rows[static_cast<size_t>(b * kControls + i)];
+            // sum is in 1/6 quanta times kScale; 1/48 = 1/6 / 8
+            out[static_cast<size_t>(j * kControls + i)] =
+                roundDiv((kFineScale / kControlScale) * sum, kScale);
+        }
+}
+
 void evaluateGrid(const DetailPatch& p, std::array<std::int32_t, kPatchGridVertices>& out) {
     std::array<std::int64_t, kPatchGridVertices> numerators{};
     gridNumerators(p, numerators);

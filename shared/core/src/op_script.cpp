@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <string>
 
 namespace terrain {
@@ -104,6 +105,66 @@ Result<std::vector<OpRequest>> parseOpScript(std::string_view text) {
         ops.push_back(r);
     }
     return ops;
+}
+
+Result<std::vector<DeformOp>> parseCanonicalOps(std::string_view text) {
+    std::vector<DeformOp> ops;
+    int line_no = 0;
+    while (!text.empty()) {
+        const std::size_t eol = text.find('\n');
+        std::string_view line = text.substr(0, eol);
+        text = eol == std::string_view::npos ? std::string_view{} : text.substr(eol + 1);
+        ++line_no;
+        if (const std::size_t hash = line.find('#'); hash != std::string_view::npos)
+            line = line.substr(0, hash);
+        const auto f = splitFields(line);
+        if (f.empty())
+            continue;
+        auto fail = [&](std::string_view rule) {
+            std::string message = "canonical op script line ";
+            message.append(std::to_string(line_no)).append(": ").append(rule);
+            return makeError(ErrorCode::kBadFormat, std::move(message));
+        };
+        DeformOp op;
+        if (f[0] == "crater")
+            op.kind = OpKind::kCrater;
+        else if (f[0] == "raise")
+            op.kind = OpKind::kRaise;
+        else if (f[0] == "flatten")
+            op.kind = OpKind::kFlatten;
+        else if (f[0] == "smooth")
+            op.kind = OpKind::kSmooth;
+        else
+            return fail("the kind must be crater, raise, flatten or smooth");
+        if (f.size() != 6)
+            return fail("an op is a kind and five integers");
+        std::int64_t v[5] = {};
+        for (std::size_t i = 1; i < 6; ++i) {
+            const char* end = f[i].data() + f[i].size();
+            const auto [ptr, ec] = std::from_chars(f[i].data(), end, v[i - 1]);
+            if (ec != std::errc() || ptr != end)
+                return fail("every field after the kind must be an integer");
+        }
+        if (v[2] < INT32_MIN || v[2] > INT32_MAX || v[3] < INT32_MIN || v[3] > INT32_MAX ||
+            v[4] < INT32_MIN || v[4] > INT32_MAX)
+            return fail("radius, height and strength must fit in 32 bits");
+        op.center_x = v[0];
+        op.center_y = v[1];
+        op.radius = static_cast<std::int32_t>(v[2]);
+        op.height = static_cast<std::int32_t>(v[3]);
+        op.strength = static_cast<std::int32_t>(v[4]);
+        ops.push_back(op);
+    }
+    return ops;
+}
+
+std::string formatCanonicalOp(const DeformOp& op) {
+    std::string s = toString(op.kind);
+    for (std::int64_t v :
+         {op.center_x, op.center_y, std::int64_t{op.radius}, std::int64_t{op.height},
+          std::int64_t{op.strength}})
+        s.append(" ").append(std::to_string(v));
+    return s;
 }
 
 std::vector<OpRequest> randomCraters(const WorldSpec& spec, const CraterSeries& s) {

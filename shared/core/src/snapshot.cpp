@@ -62,6 +62,18 @@ Result<TileRecord> decodeTile(std::span<const std::uint8_t> bytes, const WorldSp
                 ErrorCode::kOutOfRange,
                 "sample " + std::to_string(v) + " is beyond the height limit");
     }
+    rec.originals.resize(kTileVertices * kTileVertices);
+    if (!r.i32s(rec.originals.data(), rec.originals.size()))
+        return makeError(ErrorCode::kTruncated, "tile record truncated in its displacements");
+    for (std::size_t i = 0; i < rec.originals.size(); ++i) {
+        // sample - displacement, without overflow: both are within int32
+        const std::int64_t original = std::int64_t{rec.samples[i]} - rec.originals[i];
+        if (original > kMaxHeightQuanta || original < -kMaxHeightQuanta)
+            return makeError(
+                ErrorCode::kOutOfRange,
+                "original ground " + std::to_string(original) + " is beyond the height limit");
+        rec.originals[i] = static_cast<std::int32_t>(original);
+    }
     std::uint32_t count = 0;
     if (!r.u32(count))
         return makeError(ErrorCode::kTruncated, "tile record truncated before its patch count");
@@ -108,9 +120,10 @@ Result<DecodedSnapshot> decodeSnapshot(std::span<const std::uint8_t> bytes) {
         return truncated("the version");
     if (version != kSnapshotVersion)
         return makeError(
-            ErrorCode::kUnsupported, "snapshot version " + std::to_string(version) +
-                                         " is not supported (expected " +
-                                         std::to_string(kSnapshotVersion) + ")");
+            ErrorCode::kUnsupported,
+            "snapshot version " + std::to_string(version) + " is not supported (this build reads " +
+                "version " + std::to_string(kSnapshotVersion) +
+                (version == 1 ? ": version 1 worlds were built by v1 craters)" : ")"));
     WorldSpec spec;
     std::uint64_t sequence = 0;
     std::uint32_t tile_count = 0;
@@ -166,6 +179,7 @@ Result<DecodedSnapshot> decodeSnapshot(std::span<const std::uint8_t> bytes) {
     // tile that shares it, and all copies must agree
     const std::size_t pw = static_cast<std::size_t>(spec.paddedWidth());
     std::vector<std::int32_t> padded(pw * static_cast<std::size_t>(spec.paddedHeight()));
+    std::vector<std::int32_t> padded_original(padded.size());
     std::vector<std::uint8_t> seen(padded.size(), 0);
     for (const TileRecord& rec : records) {
         const std::int32_t tx = rec.tile % spec.tilesX();
@@ -174,14 +188,17 @@ Result<DecodedSnapshot> decodeSnapshot(std::span<const std::uint8_t> bytes) {
             for (std::int32_t x = 0; x < kTileVertices; ++x) {
                 const std::size_t at = static_cast<std::size_t>(ty * kTileCells + y) * pw +
                                        static_cast<std::size_t>(tx * kTileCells + x);
-                const std::int32_t v = rec.samples[static_cast<std::size_t>(y * kTileVertices + x)];
-                if (seen[at] != 0 && padded[at] != v)
+                const auto i = static_cast<std::size_t>(y * kTileVertices + x);
+                const std::int32_t v = rec.samples[i];
+                const std::int32_t o = rec.originals[i];
+                if (seen[at] != 0 && (padded[at] != v || padded_original[at] != o))
                     return makeError(
                         ErrorCode::kInvariantBroken, "tiles disagree on the shared edge vertex (" +
                                                          std::to_string(tx * kTileCells + x) +
                                                          ", " +
                                                          std::to_string(ty * kTileCells + y) + ")");
                 padded[at] = v;
+                padded_original[at] = o;
                 seen[at] = 1;
             }
     }
@@ -198,7 +215,7 @@ Result<DecodedSnapshot> decodeSnapshot(std::span<const std::uint8_t> bytes) {
     if (!terrain)
         return terrain.error();
     for (TileRecord& rec : records)
-        terrain->loadTile(rec.tile, rec.samples, std::move(rec.patches));
+        terrain->loadTile(rec.tile, rec.samples, rec.originals, std::move(rec.patches));
     // a record is the tile's canonical bytes (shared edges were checked equal above), so its hash
     // is the record's: no need to serialize the tile again
     for (std::size_t i = 0; i < records.size(); ++i) {

@@ -2,9 +2,11 @@
 
 #include <terrain/terrain.h>
 
+#define XXH_STATIC_LINKING_ONLY // XXH3_state_t on the stack
 #include <xxhash.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cstring>
 #include <string>
@@ -52,6 +54,7 @@ Terrain::createUnhashed(const WorldSpec& spec, std::span<const std::int32_t> sam
                      static_cast<std::size_t>(sx)]);
         }
     }
+    t.original_ = t.samples_;
     t.tiles_.resize(static_cast<std::size_t>(spec.tileCount()));
     return t;
 }
@@ -77,23 +80,32 @@ const DetailPatch* Terrain::findPatch(std::int32_t cx, std::int32_t cy) const {
     return (it != patches.end() && it->cell == cell) ? &it->patch : nullptr;
 }
 
-void Terrain::setPatch(std::int32_t cx, std::int32_t cy, const DetailPatch* patch) {
-    auto& patches = tiles_[static_cast<std::size_t>(tileOfCell(cx, cy))].patches;
-    const std::uint16_t cell = localCell(cx, cy);
-    const auto it = std::lower_bound(
-        patches.begin(), patches.end(), cell,
-        [](const PatchEntry& e, std::uint16_t c) { return e.cell < c; });
-    const bool present = it != patches.end() && it->cell == cell;
-    if (patch != nullptr) {
-        if (present) {
-            it->patch = *patch;
-        } else {
-            patches.insert(it, PatchEntry{cell, *patch});
-            ++patch_count_;
+void Terrain::applyPatchChanges(std::span<const PatchChange> changes) {
+    for (std::size_t first = 0; first < changes.size();) {
+        std::size_t last = first;
+        while (last < changes.size() && changes[last].tile == changes[first].tile)
+            ++last;
+        auto& patches = tiles_[static_cast<std::size_t>(changes[first].tile)].patches;
+        std::vector<PatchEntry>& merged = merge_scratch_;
+        merged.clear();
+        merged.reserve(patches.size() + (last - first));
+        auto old = patches.begin();
+        for (std::size_t c = first; c < last; ++c) {
+            const PatchChange& change = changes[c];
+            while (old != patches.end() && old->cell < change.cell)
+                merged.push_back(*old++);
+            const bool present = old != patches.end() && old->cell == change.cell;
+            if (present)
+                ++old;
+            if (!change.erase)
+                merged.push_back(PatchEntry{change.cell, change.patch});
+            patch_count_ = patch_count_ + (change.erase ? 0 : 1) - (present ? 1 : 0);
         }
-    } else if (present) {
-        patches.erase(it);
-        --patch_count_;
+        merged.insert(merged.end(), old, patches.end());
+        // copied back rather than swapped: a tile keeps a buffer of its own size, not the
+        // scratch's (memoryUsage counts capacity)
+        patches.assign(merged.begin(), merged.end());
+        first = last;
     }
 }
 
@@ -120,6 +132,13 @@ void Terrain::appendTileBytes(std::int32_t tile, std::vector<std::uint8_t>& out)
                     out[at++] = static_cast<std::uint8_t>(static_cast<std::uint32_t>(row[x]) >> b);
         }
     }
+    // displacements from the original ground, row by row
+    for (std::int32_t y = 0; y < kTileVertices; ++y)
+        for (std::int32_t x = 0; x < kTileVertices; ++x) {
+            const std::int32_t vx = tx * kTileCells + x;
+            const std::int32_t vy = ty * kTileCells + y;
+            detail::putI32(out, sample(vx, vy) - original(vx, vy));
+        }
     const auto& patches = tiles_[static_cast<std::size_t>(tile)].patches;
     detail::putU32(out, static_cast<std::uint32_t>(patches.size()));
     // patches: sized once as well (byte-wise appends were a quarter of a crater storm's time)
@@ -159,9 +178,72 @@ std::uint64_t hashWorld(
 } // namespace
 
 void Terrain::rehashTile(std::int32_t tile) {
-    scratch_.clear();
-    appendTileBytes(tile, scratch_);
-    tiles_[static_cast<std::size_t>(tile)].hash = XXH3_64bits(scratch_.data(), scratch_.size());
+    tiles_[static_cast<std::size_t>(tile)].hash = streamTileHash(tile);
+}
+
+std::uint64_t Terrain::streamTileHash(std::int32_t tile) const {
+    // the bytes of appendTileBytes, streamed in chunks of a stack buffer: a battle zone's tile
+    // holds hundreds of kilobytes of patches, which were copied and zero-filled for every op
+    XXH3_state_t state;
+    XXH3_64bits_reset(&state);
+    std::array<std::uint8_t, 8192> chunk{};
+    std::size_t used = 0;
+    auto flush = [&] {
+        XXH3_64bits_update(&state, chunk.data(), used);
+        used = 0;
+    };
+    auto put32 = [&](std::uint32_t v) {
+        for (int b = 0; b < 32; b += 8)
+            chunk[used++] = static_cast<std::uint8_t>(v >> b);
+    };
+    const std::int32_t tx = tile % spec_.tilesX();
+    const std::int32_t ty = tile / spec_.tilesX();
+    put32(static_cast<std::uint32_t>(tx));
+    put32(static_cast<std::uint32_t>(ty));
+    for (std::int32_t y = 0; y < kTileVertices; ++y) {
+        const std::int32_t* row = &samples_
+                                      [static_cast<std::size_t>(ty * kTileCells + y) *
+                                           static_cast<std::size_t>(padded_width_) +
+                                       static_cast<std::size_t>(tx * kTileCells)];
+        if (used + kTileVertices * sizeof(std::int32_t) > chunk.size())
+            flush();
+        if constexpr (std::endian::native == std::endian::little) {
+            std::memcpy(chunk.data() + used, row, kTileVertices * sizeof(std::int32_t));
+            used += kTileVertices * sizeof(std::int32_t);
+        } else {
+            for (std::int32_t x = 0; x < kTileVertices; ++x)
+                put32(static_cast<std::uint32_t>(row[x]));
+        }
+    }
+    for (std::int32_t y = 0; y < kTileVertices; ++y) {
+        if (used + kTileVertices * sizeof(std::int32_t) > chunk.size())
+            flush();
+        for (std::int32_t x = 0; x < kTileVertices; ++x) {
+            const std::int32_t vx = tx * kTileCells + x;
+            const std::int32_t vy = ty * kTileCells + y;
+            put32(static_cast<std::uint32_t>(sample(vx, vy) - original(vx, vy)));
+        }
+    }
+    const auto& patches = tiles_[static_cast<std::size_t>(tile)].patches;
+    if (used + sizeof(std::uint32_t) > chunk.size())
+        flush();
+    put32(static_cast<std::uint32_t>(patches.size()));
+    constexpr std::size_t kControlBytes = sizeof(std::int32_t) * kPatchControls;
+    for (const PatchEntry& e : patches) {
+        if (used + sizeof(std::uint16_t) + kControlBytes > chunk.size())
+            flush();
+        chunk[used++] = static_cast<std::uint8_t>(e.cell);
+        chunk[used++] = static_cast<std::uint8_t>(e.cell >> 8);
+        if constexpr (std::endian::native == std::endian::little) {
+            std::memcpy(chunk.data() + used, e.patch.control.data(), kControlBytes);
+            used += kControlBytes;
+        } else {
+            for (std::int32_t c : e.patch.control)
+                put32(static_cast<std::uint32_t>(c));
+        }
+    }
+    flush();
+    return XXH3_64bits_digest(&state);
 }
 
 void Terrain::rehashWorld() {
@@ -188,6 +270,7 @@ std::uint64_t Terrain::computeWorldHash() const {
 MemoryUsage Terrain::memoryUsage() const {
     MemoryUsage m;
     m.sample_bytes = samples_.capacity() * sizeof(std::int32_t);
+    m.original_bytes = original_.capacity() * sizeof(std::int32_t);
     m.tile_bytes = tiles_.capacity() * sizeof(Tile);
     for (const Tile& t : tiles_)
         m.patch_bytes += t.patches.capacity() * sizeof(PatchEntry);
@@ -195,14 +278,21 @@ MemoryUsage Terrain::memoryUsage() const {
 }
 
 void Terrain::loadTile(
-    std::int32_t tile, std::span<const std::int32_t> samples65, std::vector<PatchEntry> patches) {
+    std::int32_t tile,
+    std::span<const std::int32_t> samples65,
+    std::span<const std::int32_t> originals65,
+    std::vector<PatchEntry> patches) {
     const std::int32_t tx = tile % spec_.tilesX();
     const std::int32_t ty = tile / spec_.tilesX();
     for (std::int32_t y = 0; y < kTileVertices; ++y)
-        for (std::int32_t x = 0; x < kTileVertices; ++x)
-            setSample(
-                tx * kTileCells + x, ty * kTileCells + y,
-                samples65[static_cast<std::size_t>(y * kTileVertices + x)]);
+        for (std::int32_t x = 0; x < kTileVertices; ++x) {
+            const auto i = static_cast<std::size_t>(y * kTileVertices + x);
+            setSample(tx * kTileCells + x, ty * kTileCells + y, samples65[i]);
+            original_
+                [static_cast<std::size_t>(ty * kTileCells + y) *
+                     static_cast<std::size_t>(padded_width_) +
+                 static_cast<std::size_t>(tx * kTileCells + x)] = originals65[i];
+        }
     auto& slot = tiles_[static_cast<std::size_t>(tile)].patches;
     patch_count_ -= slot.size();
     slot = std::move(patches);
@@ -230,8 +320,11 @@ void Terrain::rehashAll() {
 }
 
 void Terrain::replaceTile(
-    std::int32_t tile, std::span<const std::int32_t> samples65, std::vector<PatchEntry> patches) {
-    loadTile(tile, samples65, std::move(patches));
+    std::int32_t tile,
+    std::span<const std::int32_t> samples65,
+    std::span<const std::int32_t> originals65,
+    std::vector<PatchEntry> patches) {
+    loadTile(tile, samples65, originals65, std::move(patches));
     const std::int32_t tx = tile % spec_.tilesX();
     const std::int32_t ty = tile / spec_.tilesX();
     // edge vertices are shared: neighbouring tiles' bytes and patch bounds may have changed too

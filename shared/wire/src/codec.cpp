@@ -196,7 +196,7 @@ Result<std::vector<TileRecord>> decodeTiles(
     const WorldSpec& spec,
     std::size_t max_tiles) {
     // a tile record is at most 65 x 65 samples + 64 x 64 patches of 102 bytes, plus headers
-    constexpr std::uint64_t kMaxTileRecordBytes = 12 + 65 * 65 * 4 + 64 * 64 * 102;
+    constexpr std::uint64_t kMaxTileRecordBytes = 12 + 2 * 65 * 65 * 4 + 64 * 64 * 102;
     Result<std::vector<std::uint8_t>> raw = decompress(
         compressed, static_cast<std::size_t>(raw_bytes),
         static_cast<std::size_t>(kMaxTileRecordBytes * max_tiles));

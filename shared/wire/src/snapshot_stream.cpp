@@ -50,7 +50,7 @@ buildSnapshotFrames(const Terrain& terrain, std::uint64_t seq, std::size_t chunk
 std::uint64_t maxSnapshotBytes(const WorldSpec& spec) {
     constexpr std::uint64_t kHeader = 4 + 4 + 5 * 4 + 8 + 4;
     constexpr std::uint64_t kMaxTileRecord =
-        4 + 8 + 65 * 65 * 4 + 4 + std::uint64_t{kTileCells} * kTileCells * (2 + 25 * 4);
+        4 + 8 + 2 * 65 * 65 * 4 + 4 + std::uint64_t{kTileCells} * kTileCells * (2 + 25 * 4);
     return kHeader + static_cast<std::uint64_t>(spec.tileCount()) * kMaxTileRecord + 16;
 }
 

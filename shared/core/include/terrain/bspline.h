@@ -31,6 +31,17 @@ inline constexpr std::array<std::array<std::int64_t, kControls>, kControls> kInt
     {0, 0, 0, 0, 120},
 }};
 
+/// Collocation at the Greville points: N_j(g_i) = kCollocation[i][j] / kCollocationScale, exact
+/// (the inverse of kInterpolation). Gives a patch's exact heights at its control points.
+inline constexpr std::int64_t kCollocationScale = 108;
+inline constexpr std::array<std::array<std::int64_t, kControls>, kControls> kCollocation = {{
+    {108, 0, 0, 0, 0},
+    {32, 61, 14, 1, 0},
+    {0, 27, 54, 27, 0},
+    {0, 1, 14, 61, 32},
+    {0, 0, 0, 0, 108},
+}};
+
 /// Evaluation grid: 17 samples per side at u = k/16.
 inline constexpr int kGridSamples = 17;
 inline constexpr int kGridSteps = kGridSamples - 1;

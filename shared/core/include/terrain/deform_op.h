@@ -12,7 +12,7 @@
 namespace terrain {
 
 enum class OpKind : std::uint8_t {
-    kCrater = 1,  ///< bowl of depth `height` with a rim of `strength * height` at `radius`
+    kCrater = 1,  ///< blast: bowl `height` deep below the ground around it, rim `strength * height`
     kRaise = 2,   ///< smooth mound of signed height `height` (negative digs)
     kFlatten = 3, ///< blends towards absolute height `height` by `strength`, fading to the edge
     kSmooth = 4,  ///< relaxes towards the neighbour average by `strength`, fading to the edge
@@ -46,7 +46,8 @@ struct OpRequest {
     double strength = 1.0; ///< [0, 1]
 };
 
-/// Largest op footprint, so that one op's cost stays bounded on every map.
+/// Largest op footprint, so that one op's cost stays bounded on every map. A crater is at most
+/// as deep as it is wide in radius (steeper bowls are shafts, not craters).
 inline constexpr std::int32_t kMaxRadiusCells = 128;
 inline constexpr double kMaxRadiusMetres = 2000.0;
 inline constexpr double kMaxOpHeightMetres = 1000.0;
@@ -71,13 +72,5 @@ Result<DeformOp> quantizeOp(const OpRequest& request, const WorldSpec& spec);
 
 /// One line, for logs and the CLI: "crater x=12.5 y=40 r=3 h=1.5 s=0.25" (metres).
 std::string describe(const DeformOp& op, const WorldSpec& spec);
-
-/// New height (1/48 quanta) at a point (1/48 quanta) whose old height is z48, for the pointwise
-/// kinds (crater, raise, flatten). Exact integer arithmetic: the same on every platform.
-std::int64_t
-pointwiseHeight(const DeformOp& op, std::int64_t x48, std::int64_t y48, std::int64_t z48);
-
-/// Fade weight (16.16) of a point for smooth and flatten: (1 - r^2/R^2)^2 inside R, 0 outside.
-std::int64_t fadeWeight(const DeformOp& op, std::int64_t x48, std::int64_t y48);
 
 } // namespace terrain

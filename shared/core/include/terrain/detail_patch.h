@@ -109,6 +109,10 @@ std::int64_t gridNumerator(const DetailPatch& p, int k, int l);
 /// All 17 x 17 numerators at once (separable, about 5x cheaper than 289 gridNumerator calls).
 void gridNumerators(const DetailPatch& p, std::array<std::int64_t, kPatchGridVertices>& out);
 
+/// Heights at the 25 Greville points (u, v in {0, 1/6, 1/2, 5/6, 1}), index j * 5 + i, in
+/// 1/48 quanta rounded to nearest (exact sums; one rounding).
+void grevilleHeights48(const DetailPatch& p, std::array<std::int64_t, kPatchControls>& out);
+
 /// Heights (quanta, rounded to nearest) on the 17 x 17 grid, index l * 17 + k.
 /// A straight border evaluates exactly to the rounded base edge, so grids of neighbouring cells
 /// agree bit for bit along shared edges.

@@ -14,6 +14,7 @@
 #include <terrain/world_spec.h>
 
 #include <cstdint>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -22,6 +23,16 @@ namespace terrain {
 /// Errors: kBadFormat naming the line and the rule (unknown kind, wrong field count, a field
 /// that is not a number). Ranges are checked later, per op, by quantizeOp().
 Result<std::vector<OpRequest>> parseOpScript(std::string_view text);
+
+/// Canonical op scripts: the exact integers of DeformOp, one op per line, for replays that must
+/// reach the same bits anywhere (the golden battle, cross-CPU checks). '#' comments allowed:
+///   <crater|raise|flatten|smooth> <center_x> <center_y> <radius> <height> <strength>
+/// (quanta, and 16.16 for strength). Errors: kBadFormat naming the line and the rule. Ranges are
+/// checked when the ops are applied (validateOp()).
+Result<std::vector<DeformOp>> parseCanonicalOps(std::string_view text);
+
+/// One line of that form, without the newline.
+std::string formatCanonicalOp(const DeformOp& op);
 
 struct CraterSeries {
     std::uint64_t seed = 1;

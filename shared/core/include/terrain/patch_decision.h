@@ -6,8 +6,8 @@
 // Pure: no state, no I/O.
 
 #include <terrain/base_cell.h>
-#include <terrain/deform_op.h>
 #include <terrain/detail_patch.h>
+#include <terrain/pointwise_op.h>
 
 #include <cstdint>
 
@@ -18,30 +18,41 @@ namespace terrain {
 bool patchNeeded(const DetailPatch& p, const CellCorners& c, Diagonal d, std::int64_t tolerance);
 
 /// Does a pointwise op (crater, raise, flatten) put detail into base cell (cx, cy) that the
-/// triangles over its new corners `cn` cannot hold? `co` are the old corners, h the spacing.
-/// Smooth ops never do. Runs the exact 289-point check unless curvatureFitsTolerance() says no.
+/// triangles over its new corners `cn` cannot hold? `co` are the old corners, `oc` the original
+/// ground's, h the spacing. Smooth ops never do. Runs the exact 289-point check unless
+/// curvatureFitsTolerance() says no.
 bool baseCellNeedsPatch(
-    const DeformOp& op,
+    const PointwiseOp& op,
     std::int32_t cx,
     std::int32_t cy,
     const CellCorners& co,
     const CellCorners& cn,
+    const CellCorners& oc,
     std::int64_t h,
     std::int64_t tolerance);
 
 /// The exhaustive part of baseCellNeedsPatch alone (for tests of the prefilter).
 bool baseCellNeedsPatchExhaustive(
-    const DeformOp& op,
+    const PointwiseOp& op,
     std::int32_t cx,
     std::int32_t cy,
     const CellCorners& co,
     const CellCorners& cn,
+    const CellCorners& oc,
     std::int64_t h,
     std::int64_t tolerance);
 
 /// Prefilter: true when the op's bounded curvature over the cell guarantees that linear
-/// interpolation holds it within the tolerance (crater cells crossed by the rim never qualify).
+/// interpolation holds it within the tolerance. For a crater the cell must lie in one regime
+/// (carved to the profile, cut by the limit, filled by the limit, or untouched), shown by bounds
+/// over the cell; cells that the rim circle or a regime boundary may cross never qualify.
 bool curvatureFitsTolerance(
-    const DeformOp& op, std::int32_t cx, std::int32_t cy, std::int64_t h, std::int64_t tolerance);
+    const PointwiseOp& op,
+    std::int32_t cx,
+    std::int32_t cy,
+    const CellCorners& co,
+    const CellCorners& oc,
+    std::int64_t h,
+    std::int64_t tolerance);
 
 } // namespace terrain

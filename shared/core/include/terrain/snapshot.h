@@ -3,7 +3,7 @@
 // Whole-state snapshots (join, persistence) and single-tile records (snapshot chunks, repair).
 //
 // Snapshot layout, little-endian:
-//   "TRSN" u32 version(1)
+//   "TRSN" u32 version (kSnapshotVersion)
 //   i32 width, height, spacing, units_per_metre, patch_tolerance
 //   u64 sequence            (opaque to the core; the server's op sequence number)
 //   u32 tile_count, then per tile: u32 byte length + Terrain::appendTileBytes() record
@@ -20,7 +20,9 @@
 
 namespace terrain {
 
-inline constexpr std::uint32_t kSnapshotVersion = 1;
+/// 2 since the v2 crater model: tile records carry the original ground, and a world that v1 ops
+/// built cannot be continued by v2 ops, so v1 snapshots are refused by name.
+inline constexpr std::uint32_t kSnapshotVersion = 2;
 
 std::vector<std::uint8_t> encodeSnapshot(const Terrain& terrain, std::uint64_t sequence);
 
@@ -38,8 +40,9 @@ Result<DecodedSnapshot> decodeSnapshot(std::span<const std::uint8_t> bytes);
 /// One tile's decoded record.
 struct TileRecord {
     std::int32_t tile = 0;
-    std::vector<std::int32_t> samples; ///< 65 x 65, row-major
-    std::vector<PatchEntry> patches;   ///< ascending cell order
+    std::vector<std::int32_t> samples;   ///< 65 x 65, row-major
+    std::vector<std::int32_t> originals; ///< 65 x 65: the original ground (sample - displacement)
+    std::vector<PatchEntry> patches;     ///< ascending cell order
 };
 
 /// Decodes one Terrain::appendTileBytes() record for a world of `spec`.

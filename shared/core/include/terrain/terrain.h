@@ -44,10 +44,11 @@ struct OpEffect {
 };
 
 struct MemoryUsage {
-    std::size_t sample_bytes = 0; ///< the base grid (padded)
-    std::size_t patch_bytes = 0;  ///< patch entries in use
-    std::size_t tile_bytes = 0;   ///< per-tile bookkeeping (hash, patch vector headers)
-    std::size_t total() const { return sample_bytes + patch_bytes + tile_bytes; }
+    std::size_t sample_bytes = 0;   ///< the base grid (padded)
+    std::size_t original_bytes = 0; ///< the original ground (padded), the craters' reference
+    std::size_t patch_bytes = 0;    ///< patch entries in use
+    std::size_t tile_bytes = 0;     ///< per-tile bookkeeping (hash, patch vector headers)
+    std::size_t total() const { return sample_bytes + original_bytes + patch_bytes + tile_bytes; }
 };
 
 inline constexpr std::size_t kBytesPerPatch = sizeof(PatchEntry);
@@ -75,6 +76,19 @@ class Terrain {
     }
     std::span<const std::int32_t> paddedSamples() const { return samples_; }
 
+    /// The original ground at vertex (x, y): the samples the world was created with. Craters
+    /// measure how deep they may dig and how high they may throw from it; it changes only
+    /// through snapshots and repairs, which carry it.
+    std::int32_t original(std::int32_t x, std::int32_t y) const {
+        return original_
+            [static_cast<std::size_t>(y) * static_cast<std::size_t>(padded_width_) +
+             static_cast<std::size_t>(x)];
+    }
+    CellCorners originalCorners(std::int32_t cx, std::int32_t cy) const {
+        return {
+            original(cx, cy), original(cx + 1, cy), original(cx, cy + 1), original(cx + 1, cy + 1)};
+    }
+
     /// The patch of cell (cx, cy), or nullptr where the base triangles are the surface.
     const DetailPatch* findPatch(std::int32_t cx, std::int32_t cy) const;
     std::size_t patchCount() const { return patch_count_; }
@@ -97,17 +111,20 @@ class Terrain {
     Result<OpEffect> apply(const DeformOp& op);
 
     /// Canonical little-endian bytes of tile t: the input of its hash and a snapshot chunk.
-    /// Layout: u32 tile x, u32 tile y, 65 x 65 i32 samples row-major, u32 patch count, then per
-    /// patch u16 local cell and 25 i32 controls.
+    /// Layout: u32 tile x, u32 tile y, 65 x 65 i32 samples row-major, 65 x 65 i32 displacements
+    /// (sample - original ground: zero wherever no op has been, so it compresses to nothing),
+    /// u32 patch count, then per patch u16 local cell and 25 i32 controls.
     void appendTileBytes(std::int32_t tile, std::vector<std::uint8_t>& out) const;
 
     MemoryUsage memoryUsage() const;
 
-    /// Replaces tile t's samples and patches from decoded canonical bytes (snapshot, repair).
-    /// The caller has validated the patch invariants; rehashes the tile and the world.
+    /// Replaces tile t's samples, original ground and patches from decoded canonical bytes
+    /// (snapshot, repair). The caller has validated the patch invariants; rehashes the tile and
+    /// the world.
     void replaceTile(
         std::int32_t tile,
         std::span<const std::int32_t> samples65,
+        std::span<const std::int32_t> originals65,
         std::vector<PatchEntry> patches);
 
     /// Checks every patch invariant (pinned corners, borders shared or straight). Used after
@@ -126,10 +143,11 @@ class Terrain {
     /// create() without the tile and world hashes (decodeSnapshot sets them from its records).
     static Result<Terrain>
     createUnhashed(const WorldSpec& spec, std::span<const std::int32_t> samples);
-    /// Writes a tile's samples and patches (bounds recomputed) without rehashing anything.
+    /// Writes a tile's samples, original ground and patches without rehashing anything.
     void loadTile(
         std::int32_t tile,
         std::span<const std::int32_t> samples65,
+        std::span<const std::int32_t> originals65,
         std::vector<PatchEntry> patches);
     void rehashAll();
     /// Recomputes the derived bounds of a tile's patches.
@@ -148,19 +166,31 @@ class Terrain {
             [static_cast<std::size_t>(y) * static_cast<std::size_t>(padded_width_) +
              static_cast<std::size_t>(x)] = value;
     }
-    /// Inserts, replaces (patch != nullptr) or erases (nullptr) the patch of a cell.
-    void setPatch(std::int32_t cx, std::int32_t cy, const DetailPatch* patch);
+    /// A patch to insert or replace (`patch` set) or to erase, in a tile.
+    struct PatchChange {
+        std::int32_t tile = 0;
+        std::uint16_t cell = 0;
+        bool erase = false;
+        DetailPatch patch;
+    };
+    /// Applies changes sorted by (tile, cell), merging each tile's list once: a battle zone's
+    /// tiles hold thousands of patches, and one insert at a time moved them all each time.
+    void applyPatchChanges(std::span<const PatchChange> changes);
     void rehashTile(std::int32_t tile);
+    /// XXH3-64 of appendTileBytes(tile), without building the bytes.
+    std::uint64_t streamTileHash(std::int32_t tile) const;
     void rehashWorld();
 
     WorldSpec spec_;
     std::int32_t padded_width_ = 0;
     std::vector<std::int32_t> samples_;
+    std::vector<std::int32_t> original_; // the samples at creation, padded the same way
     std::vector<Tile> tiles_;
     std::size_t patch_count_ = 0;
     std::uint64_t world_hash_ = 0;
     std::vector<std::uint8_t> scratch_;      // reused for tile bytes when hashing
     std::vector<std::uint64_t> tile_hashes_; // reused by rehashWorld
+    std::vector<PatchEntry> merge_scratch_;  // reused by applyPatchChanges
 };
 
 } // namespace terrain

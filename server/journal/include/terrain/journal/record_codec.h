@@ -20,7 +20,8 @@
 
 namespace terrain::journal {
 
-inline constexpr std::uint32_t kSegmentVersion = 1;
+/// 2 since the v2 crater model (the record layout is unchanged; the ops mean something else).
+inline constexpr std::uint32_t kSegmentVersion = 2;
 inline constexpr std::size_t kSegmentHeaderSize = 24;
 inline constexpr std::size_t kRecordSize = 57;
 

@@ -22,7 +22,9 @@ namespace terrain::wire {
 
 namespace pb = ::terrain::v1;
 
-inline constexpr std::uint32_t kProtocolVersion = 1;
+/// 2: the crater model anchored to the ground around it (v1 craters were additive); the
+/// messages are those of v1.
+inline constexpr std::uint32_t kProtocolVersion = 2;
 
 /// An encoded frame (prefix + envelope), shared by every session that sends it.
 using Frame = std::shared_ptr<const std::vector<std::uint8_t>>;

@@ -1,0 +1,250 @@
+// Battle benchmark: the battle generator's shots (rays from moving cameras at grazing and steep
+// angles, each cast against the surface the earlier shots left) applied to a map, timed per shot,
+// with the stability figures of tests/support/battle_checks.h: how high any point rose above the
+// original ground near it, needles, the steepest slope, patches and memory. Optionally writes a
+// shaded-relief PNG of the battle zone and the canonical ops (a replayable script).
+// Exit status: 0, or 2 on a bad option, DEM or output file. Timings are reported, never asserted.
+
+#include "support/battle_checks.h"
+#include "support/bench_facts.h"
+
+#include <terrain/battle.h>
+#include <terrain/io/dem_import.h>
+#include <terrain/io/png_image.h>
+#include <terrain/io/shaded_relief.h>
+#include <terrain/op_script.h>
+#include <terrain/procedural_map.h>
+#include <terrain/terrain.h>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <string>
+
+namespace {
+
+using namespace terrain;
+using Json = nlohmann::ordered_json;
+
+std::size_t residentBytes() {
+    std::ifstream in("/proc/self/status");
+    std::string line;
+    while (std::getline(in, line))
+        if (line.rfind("VmRSS:", 0) == 0)
+            return static_cast<std::size_t>(std::stoull(line.substr(6))) * 1024;
+    return 0;
+}
+
+Json summaryJson(const bench::Summary& s) {
+    return Json{{"n", s.n}, {"p50", s.p50}, {"p99", s.p99}, {"max", s.max}, {"mean", s.mean}};
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"battle_bench: craters aimed like players aim them, timed and checked"};
+    std::string dem;
+    int shots = 10000;
+    BattleOptions o;
+    double zone_x = -1.0;
+    double zone_y = -1.0;
+    double radius_scale = 0.0;
+    double needle_height = 1.0;
+    double spacing = 0.0;
+    double vertical_scale = 0.0;
+    ProceduralMapOptions map;
+    std::string out;
+    std::string relief;
+    std::string ops_path;
+    app.add_option("--dem", dem, "DEM sidecar (.json); default: the default procedural map");
+    app.add_option("--spacing", spacing, "DEM grid spacing in metres, where the DEM states none");
+    app.add_option("--vertical-scale", vertical_scale, "DEM metres per stored unit");
+    app.add_option("--map-size", map.width, "procedural map size in vertices")
+        ->check(CLI::Range(65, 8193));
+    app.add_option("--map-seed", map.seed, "procedural map seed");
+    app.add_option("--shots", shots, "shots to fire")->check(CLI::PositiveNumber);
+    app.add_option("--seed", o.seed, "battle seed");
+    app.add_option("--zone-x", zone_x, "battle zone centre, metres (default: map centre)");
+    app.add_option("--zone-y", zone_y, "battle zone centre, metres (default: map centre)");
+    app.add_option("--zone-radius", o.zone_radius, "battle zone radius, metres");
+    app.add_option(
+        "--radius-scale", radius_scale,
+        "multiply every length of the battle (radii, ranges, zone) by this; default: "
+        "the grid spacing in metres");
+    app.add_option(
+        "--needle-height", needle_height,
+        "a vertex this far (metres, times the scale) above all 8 neighbours is a needle");
+    app.add_option("--out", out, "JSON report");
+    app.add_option("--relief", relief, "shaded-relief PNG of the battle zone");
+    app.add_option("--ops", ops_path, "write the accepted ops as canonical integers, one per line");
+    CLI11_PARSE(app, argc, argv);
+
+    std::optional<Terrain> terrain;
+    std::string map_name;
+    if (dem.empty()) {
+        map.height = map.width;
+        map_name = "procedural " + std::to_string(map.width) + " x " + std::to_string(map.width) +
+                   " (seed " + std::to_string(map.seed) + ")";
+        terrain.emplace(std::move(*makeProceduralMap(map)));
+    } else {
+        io::DemImportOptions options;
+        if (spacing > 0.0)
+            options.spacing_metres = spacing;
+        if (vertical_scale > 0.0)
+            options.vertical_scale = vertical_scale;
+        auto imported = io::importDem(dem, options);
+        if (!imported) {
+            std::fprintf(
+                stderr, "battle_bench: %s: %s\n", dem.c_str(), imported.error().message.c_str());
+            return 2;
+        }
+        map_name = imported->info.name;
+        terrain.emplace(std::move(imported->terrain));
+    }
+    Terrain& t = *terrain;
+    const WorldSpec& spec = t.spec();
+    const double scale = radius_scale > 0.0 ? radius_scale : spec.spacingMetres();
+    o.zone_x = zone_x >= 0.0 ? zone_x : spec.extentX() / 2;
+    o.zone_y = zone_y >= 0.0 ? zone_y : spec.extentY() / 2;
+    o.zone_radius *= scale;
+    o.min_range *= scale;
+    o.max_range *= scale;
+    o.min_altitude *= scale;
+    o.max_altitude *= scale;
+    o.follow_spread *= scale;
+    o.min_radius *= scale;
+    o.max_radius *= scale;
+
+    BattleGenerator generator(o);
+    testing::BattleWatch watch(t, 2.0 * o.max_radius);
+    std::vector<double> apply_ms;
+    std::vector<double> aim_ms;
+    std::ofstream ops_file;
+    if (!ops_path.empty()) {
+        ops_file.open(ops_path);
+        if (!ops_file) {
+            std::fprintf(stderr, "battle_bench: cannot write %s\n", ops_path.c_str());
+            return 2;
+        }
+        ops_file << "# canonical ops (parseCanonicalOps): kind center_x center_y radius height "
+                    "strength\n";
+    }
+    testing::BattleFigures counts;
+    const std::size_t rss_before = residentBytes();
+    const auto started = bench::Clock::now();
+    for (int i = 0; i < shots; ++i) {
+        auto t0 = bench::Clock::now();
+        const BattleShot shot = generator.next(t);
+        aim_ms.push_back(bench::msSince(t0));
+        ++counts.shots;
+        if (!shot.crater) {
+            ++counts.missed;
+            continue;
+        }
+        auto op = quantizeOp(*shot.crater, spec);
+        if (!op) {
+            ++counts.refused;
+            continue;
+        }
+        t0 = bench::Clock::now();
+        auto effect = t.apply(*op);
+        apply_ms.push_back(bench::msSince(t0));
+        if (!effect) {
+            ++counts.refused;
+            continue;
+        }
+        ++counts.craters;
+        watch.observe(t, *effect);
+        if (ops_file)
+            ops_file << formatCanonicalOp(*op) << '\n';
+    }
+    const double total_s = bench::msSince(started) / 1000.0;
+    testing::BattleFigures f = watch.figures(t, needle_height * scale, o.zone_x, o.zone_y);
+    f.shots = counts.shots;
+    f.craters = counts.craters;
+    f.missed = counts.missed;
+    f.refused = counts.refused;
+    const MemoryUsage mem = t.memoryUsage();
+    const bench::Summary apply = bench::summarize(apply_ms);
+    const bench::Summary aim = bench::summarize(aim_ms);
+
+    Json j;
+    j["bench"] = "battle_bench";
+    j["date"] = bench::isoNow();
+    j["cpu"] = bench::cpuModel();
+    j["map"] = map_name;
+    j["spacing_m"] = spec.spacingMetres();
+    j["battle"] = {
+        {"seed", o.seed},
+        {"shots", shots},
+        {"zone_x_m", o.zone_x},
+        {"zone_y_m", o.zone_y},
+        {"zone_radius_m", o.zone_radius},
+        {"radius_m", {o.min_radius, o.max_radius}},
+        {"players", o.players},
+        {"follow_share", o.follow_share}};
+    j["counts"] = {
+        {"shots", f.shots}, {"craters", f.craters}, {"missed", f.missed}, {"refused", f.refused}};
+    j["apply_ms"] = summaryJson(apply);
+    j["aim_ms"] = summaryJson(aim);
+    j["seconds"] = total_s;
+    j["world_hash"] = [&] {
+        char buf[20];
+        std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(t.worldHash()));
+        return std::string(buf);
+    }();
+    j["memory"] = {
+        {"terrain_mib", bench::mib(mem.total())},
+        {"samples_mib", bench::mib(mem.sample_bytes)},
+        {"patches_mib", bench::mib(mem.patch_bytes)},
+        {"rss_mib", bench::mib(residentBytes())},
+        {"rss_growth_mib", bench::mib(residentBytes() - std::min(rss_before, residentBytes()))}};
+    j["stability"] = {
+        {"max_rise_m", f.max_rise_m},
+        {"max_rise_own_m", f.max_rise_own_m},
+        {"max_patch_rise_m", f.max_patch_rise_m},
+        {"deepest_m", f.deepest_m},
+        {"needle_height_m", needle_height * scale},
+        {"needles", f.needles},
+        {"tallest_spike_m", f.tallest_spike_m},
+        {"max_slope", f.max_slope},
+        {"max_slope_before", f.max_slope_before},
+        {"patches", f.patches},
+        {"patch_extent_m", f.patch_extent_m},
+        {"changed_vertices", f.changed_vertices}};
+    for (const auto& spot : f.needle_spots)
+        j["stability"]["needle_spots"].push_back(
+            {{"x_m", spot.x * spec.spacingMetres()},
+             {"y_m", spot.y * spec.spacingMetres()},
+             {"spike_m", spot.value}});
+    j["stability"]["steepest"] = {
+        {"x_m", f.steepest.x * spec.spacingMetres()},
+        {"y_m", f.steepest.y * spec.spacingMetres()},
+        {"slope", f.steepest.value}};
+    std::cout << j.dump(2) << "\n";
+    if (!out.empty()) {
+        std::ofstream file(out);
+        file << j.dump(2) << "\n";
+        if (!file) {
+            std::fprintf(stderr, "battle_bench: cannot write %s\n", out.c_str());
+            return 2;
+        }
+    }
+    if (!relief.empty()) {
+        io::ReliefOptions r;
+        r.pixels_per_cell = 4;
+        const double half = o.zone_radius + 3.0 * o.max_radius;
+        r.x0 = std::max(0.0, o.zone_x - half);
+        r.y0 = std::max(0.0, o.zone_y - half);
+        r.x1 = std::min(spec.extentX(), o.zone_x + half);
+        r.y1 = std::min(spec.extentY(), o.zone_y + half);
+        if (auto status = io::writeRgbPng(relief, io::renderShadedRelief(t, r)); !status) {
+            std::fprintf(stderr, "battle_bench: %s\n", status.error().message.c_str());
+            return 2;
+        }
+    }
+    return 0;
+}
