@@ -14,6 +14,10 @@
 #include <terrain/io/shaded_relief.h>
 #include <terrain/op_script.h>
 #include <terrain/procedural_map.h>
+#include <terrain/render/offscreen.h>
+#include <terrain/render/terrain_renderer.h>
+#include <terrain/roam/tessellator.h>
+#include <terrain/surface_query.h>
 #include <terrain/terrain.h>
 
 #include <CLI/CLI.hpp>
@@ -38,6 +42,39 @@ std::size_t residentBytes() {
     return 0;
 }
 
+// A picture of the battle zone from a low oblique camera: OSMesa, ROAM at tau = 1 px.
+terrain::Status renderView(
+    const terrain::Terrain& t, const terrain::BattleOptions& o, const std::string& path) {
+    using namespace terrain;
+    constexpr int kWidth = 960;
+    constexpr int kHeight = 540;
+    auto context = render::createOffscreenContext(render::OffscreenBackend::kOsmesa, kWidth, kHeight);
+    if (!context)
+        return context.error();
+    auto renderer = render::TerrainRenderer::create(**context);
+    if (!renderer)
+        return renderer.error();
+    roam::TessellatorOptions options;
+    options.tau_pixels = 1.0;
+    options.work_budget = 1 << 30;
+    roam::Tessellator tess(t, options);
+    const double reach = o.zone_radius + 3.0 * o.max_radius;
+    const glm::dvec3 target(o.zone_x, o.zone_y, surfaceHeight(t, o.zone_x, o.zone_y));
+    roam::Camera camera;
+    camera.eye = glm::dvec3(
+        std::clamp(o.zone_x - 1.6 * reach, 0.0, t.spec().extentX()),
+        std::clamp(o.zone_y - 1.1 * reach, 0.0, t.spec().extentY()), 0.0);
+    camera.eye.z = std::max(target.z, surfaceHeight(t, camera.eye.x, camera.eye.y)) + 0.9 * reach;
+    camera.forward = target - camera.eye;
+    camera.viewport_width = kWidth;
+    camera.viewport_height = kHeight;
+    camera.near_plane = 0.5;
+    tess.update(camera);
+    (*renderer)->sync(tess, t);
+    (*renderer)->draw(tess, camera, {});
+    return io::writeRgbPng(path, (*context)->readPixels());
+}
+
 Json summaryJson(const bench::Summary& s) {
     return Json{{"n", s.n}, {"p50", s.p50}, {"p99", s.p99}, {"max", s.max}, {"mean", s.mean}};
 }
@@ -59,6 +96,7 @@ int main(int argc, char** argv) {
     std::string out;
     std::string relief;
     std::string ops_path;
+    std::string view;
     app.add_option("--dem", dem, "DEM sidecar (.json); default: the default procedural map");
     app.add_option("--spacing", spacing, "DEM grid spacing in metres, where the DEM states none");
     app.add_option("--vertical-scale", vertical_scale, "DEM metres per stored unit");
@@ -80,6 +118,7 @@ int main(int argc, char** argv) {
     app.add_option("--out", out, "JSON report");
     app.add_option("--relief", relief, "shaded-relief PNG of the battle zone");
     app.add_option("--ops", ops_path, "write the accepted ops as canonical integers, one per line");
+    app.add_option("--view", view, "rendered view (OSMesa, 960 x 540) of the battle zone, PNG");
     CLI11_PARSE(app, argc, argv);
 
     std::optional<Terrain> terrain;
@@ -242,6 +281,12 @@ int main(int argc, char** argv) {
         r.x1 = std::min(spec.extentX(), o.zone_x + half);
         r.y1 = std::min(spec.extentY(), o.zone_y + half);
         if (auto status = io::writeRgbPng(relief, io::renderShadedRelief(t, r)); !status) {
+            std::fprintf(stderr, "battle_bench: %s\n", status.error().message.c_str());
+            return 2;
+        }
+    }
+    if (!view.empty()) {
+        if (auto status = renderView(t, o, view); !status) {
             std::fprintf(stderr, "battle_bench: %s\n", status.error().message.c_str());
             return 2;
         }

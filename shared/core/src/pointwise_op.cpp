@@ -259,8 +259,11 @@ CraterTerms PointwiseOp::craterTerms(std::int64_t x48, std::int64_t y48) const {
     c.inside = true;
     c.ratio = radiusRatio(op_, r2);
     c.relief = relief48(c.ratio);
-    c.target = plane48(x48, y48) + anchor48(c.ratio) + c.relief;
-    c.limit = limit48(c.ratio);
+    // anchor48() and limit48() with the taper computed once (this runs for every point of
+    // every footprint)
+    const std::int64_t w = taper(c.ratio);
+    c.target = plane48(x48, y48) + ((ground_.anchor48 * w) >> 16) + c.relief;
+    c.limit = ((depth48_ + rim48_) * w) >> 16;
     return c;
 }
 
