@@ -43,12 +43,13 @@ std::size_t residentBytes() {
 }
 
 // A picture of the battle zone from a low oblique camera: OSMesa, ROAM at tau = 1 px.
-terrain::Status renderView(
-    const terrain::Terrain& t, const terrain::BattleOptions& o, const std::string& path) {
+terrain::Status
+renderView(const terrain::Terrain& t, const terrain::BattleOptions& o, const std::string& path) {
     using namespace terrain;
     constexpr int kWidth = 960;
     constexpr int kHeight = 540;
-    auto context = render::createOffscreenContext(render::OffscreenBackend::kOsmesa, kWidth, kHeight);
+    auto context =
+        render::createOffscreenContext(render::OffscreenBackend::kOsmesa, kWidth, kHeight);
     if (!context)
         return context.error();
     auto renderer = render::TerrainRenderer::create(**context);
