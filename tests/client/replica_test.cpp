@@ -42,9 +42,17 @@ TEST(Replica, AppliesInOrderIgnoresStaleAndRefusesGaps) {
     EXPECT_EQ(gap.error().code, ErrorCode::kOutOfRange);
     const DirtySet dirty = r.takeDirty();
     EXPECT_FALSE(dirty.all);
+    // the op's own cells, not its tiles: per-op work on the client follows the footprint
     ASSERT_EQ(dirty.cells.size(), 1u);
-    EXPECT_FALSE(dirty.tiles.empty());
-    EXPECT_TRUE(r.takeDirty().tiles.empty());
+    Terrain probe = map();
+    const CellRect own = probe.apply(a)->cells;
+    EXPECT_EQ(dirty.cells[0].x0, own.x0);
+    EXPECT_EQ(dirty.cells[0].y0, own.y0);
+    EXPECT_EQ(dirty.cells[0].x1, own.x1);
+    EXPECT_EQ(dirty.cells[0].y1, own.y1);
+    EXPECT_LT(dirty.cells[0].x1 - dirty.cells[0].x0, kTileCells) << "a tile, not the op's cells";
+    EXPECT_TRUE(dirty.tiles.empty());
+    EXPECT_TRUE(r.takeDirty().cells.empty());
 }
 
 TEST(Replica, DivergenceIsDetectedAndRepairedFromTileState) {

@@ -442,6 +442,54 @@ TEST(RoamMesh, ACraterChangesOnlyItsTile) {
     EXPECT_LE(roam::measureScreenError(tess, t, c).max_pixels, 1.0);
 }
 
+TEST(RoamMesh, ACraterAmongCratersRewritesOnlyItsOwnTriangles) {
+    // a battle-worn tile: its detail blocks come and go with every crater, and each new one
+    // must take a place in the tile's vertex array without moving the indices already listed
+    Terrain t = makeHills(23, 257, 257);
+    const double tile_m = 64.0 * t.spec().spacingMetres();
+    const double cx = 1.5 * tile_m;
+    const double cy = 1.5 * tile_m;
+    std::mt19937_64 rng(23);
+    std::uniform_real_distribution<double> around(-20.0, 20.0);
+    const auto crater_at = [&](double x, double y, double radius) {
+        OpRequest r;
+        r.x = x;
+        r.y = y;
+        r.radius = radius;
+        r.height = 0.5 * radius;
+        return *quantizeOp(r, t.spec());
+    };
+    for (int i = 0; i < 40; ++i)
+        ASSERT_TRUE(t.apply(crater_at(cx + around(rng), cy + around(rng), 3.0)).ok());
+    const Camera c = lookAt(
+        glm::dvec3(cx - 40.0, cy - 40.0, surfaceHeight(t, cx, cy) + 30.0),
+        glm::dvec3(cx, cy, surfaceHeight(t, cx, cy)));
+    Tessellator tess(t, {});
+    for (int i = 0; i < 3; ++i)
+        tess.update(c);
+    const roam::TileMesh& mesh = tess.tileMesh(5);
+    ASSERT_GT(mesh.triangleCount(), 2000u);
+    for (int shot = 0; shot < 10; ++shot) {
+        for (std::int32_t tile = 0; tile < tess.tileCount(); ++tile)
+            tess.tileMesh(tile).takeChanges();
+        const std::uint64_t rewrites = mesh.counters().rebuilds;
+        auto effect = t.apply(crater_at(cx + around(rng), cy + around(rng), 2.0));
+        ASSERT_TRUE(effect.ok());
+        tess.terrainChanged(std::span<const CellRect>(&effect->cells, 1), false);
+        const auto stats = tess.update(c);
+        ASSERT_FALSE(stats.rebuilt);
+        EXPECT_EQ(mesh.counters().rebuilds, rewrites) << "shot " << shot << " rewrote the tile";
+        EXPECT_LT(mesh.dirtyUploadBytes() * 4, mesh.slotCount() * 12u) << "shot " << shot;
+    }
+    expectConforming(tess, t.spec());
+    expectIndexListsMatchMesh(tess);
+    Tessellator fresh(t, {});
+    for (int i = 0; i < 3; ++i)
+        fresh.update(c);
+    tess.update(c);
+    EXPECT_EQ(leaves(tess), leaves(fresh));
+}
+
 TEST(RoamMesh, IncrementalBoundsAfterOpsEqualAFreshBuild) {
     Terrain t = makeHills(4);
     Tessellator tess(t, {});

@@ -82,7 +82,7 @@ TEST(Session, ClientsConvergeAfterOpsFromSeveralDeformers) {
         EXPECT_EQ(c->replica.stats().hash_mismatches, 0u);
         EXPECT_EQ(c->replica.stats().snapshots, 1u);
         EXPECT_EQ(c->replica.terrain().computeWorldHash(), hash);
-        EXPECT_FALSE(c->replica.peekDirty().tiles.empty());
+        EXPECT_FALSE(c->replica.peekDirty().cells.empty());
     }
 }
 

@@ -144,7 +144,7 @@ TEST(Compression, RefusesLiesAboutSize) {
     EXPECT_EQ(decompress(c, raw.size() + 1, 1 << 20).error().code, ErrorCode::kSizeMismatch);
     EXPECT_EQ(decompress(c, raw.size(), 100).error().code, ErrorCode::kOutOfRange);
     c[c.size() / 2] ^= 0x55;
-    c.resize(c.size() - 3);
+    c.erase(c.end() - 3, c.end()); // truncated (resize() trips GCC's -O1 stringop check)
     EXPECT_FALSE(decompress(c, raw.size(), raw.size()).ok());
 }
 

@@ -36,8 +36,8 @@ Replica::applyOp(std::uint64_t seq, const DeformOp& op, std::uint64_t world_hash
         return effect.error();
     seq_ = seq;
     ++stats_.ops_applied;
-    for (std::int32_t tile : effect->dirty_tiles)
-        markTile(tile);
+    // an op dirties its own cells: whole tiles would make every crater re-derive tiles of
+    // blocks and bounds on the client (tiles are for snapshots and repairs)
     if (!effect->cells.empty())
         dirty_.cells.push_back(effect->cells);
     if (diverged_) {

@@ -37,6 +37,8 @@ void Tessellator::adoptSpec() {
     vertex_version_.assign(tiles, 0);
     tile_blocks_.clear();
     tile_blocks_.resize(tiles);
+    tile_holes_.clear();
+    tile_holes_.resize(tiles);
     delta_.clear();
     zlo_.clear();
     zhi_.clear();

@@ -245,12 +245,49 @@ void Tessellator::rebuildTileBlocks(std::int32_t tile) {
     const std::int32_t ty = tile / spec_.tilesX();
     auto& list = tile_blocks_[idx(tile)];
     list.clear();
+    tile_holes_[idx(tile)].clear();
     for (std::int32_t cy = ty * kTileCells; cy < (ty + 1) * kTileCells; ++cy)
         for (std::int32_t cx = tx * kTileCells; cx < (tx + 1) * kTileCells; ++cx)
             if (const std::int32_t b = blocks_.blockOf(cx, cy); b >= 0) {
                 block_local_[idx(b)] = static_cast<std::int32_t>(list.size());
                 list.push_back(b);
             }
+}
+
+std::int32_t Tessellator::tileOfCell(DetailBlocks::CellXY c) const {
+    // virtual cells past the grid belong to no tile
+    if (c.x < 0 || c.y < 0 || c.x >= spec_.tilesX() * kTileCells ||
+        c.y >= spec_.tilesY() * kTileCells)
+        return -1;
+    return (c.y / kTileCells) * spec_.tilesX() + c.x / kTileCells;
+}
+
+void Tessellator::attachBlock(std::int32_t block) {
+    const std::int32_t tile = tileOfCell(blocks_.cellOf(block));
+    if (tile < 0)
+        return;
+    auto& list = tile_blocks_[idx(tile)];
+    auto& holes = tile_holes_[idx(tile)];
+    std::int32_t local = 0;
+    if (!holes.empty()) {
+        local = holes.back();
+        holes.pop_back();
+    } else {
+        local = static_cast<std::int32_t>(list.size());
+        list.push_back(-1);
+    }
+    list[idx(local)] = block;
+    block_local_[idx(block)] = local;
+}
+
+void Tessellator::detachBlock(std::int32_t block) {
+    const std::int32_t tile = tileOfCell(blocks_.cellOf(block));
+    if (tile < 0)
+        return;
+    const std::int32_t local = block_local_[idx(block)];
+    tile_blocks_[idx(tile)][idx(local)] = -1;
+    tile_holes_[idx(tile)].push_back(local);
+    block_local_[idx(block)] = -1;
 }
 
 std::int32_t Tessellator::tileVertexCount(std::int32_t tile) const {
@@ -271,6 +308,8 @@ TileVertex Tessellator::tileVertex(std::int32_t tile, std::uint32_t index) const
     }
     const std::int32_t r = i - kBaseVertices;
     const std::int32_t block = tile_blocks_[idx(tile)][idx(r / kBlockVertices)];
+    if (block < 0) // a hole: no triangle refers to it; the tile's first vertex stands in
+        return tileVertex(tile, 0);
     const std::int32_t k = (r % kBlockVertices) % kBlockSide;
     const std::int32_t l = (r % kBlockVertices) / kBlockSide;
     const DetailBlocks::CellXY c = blocks_.cellOf(block);
@@ -305,15 +344,8 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
             continue;
         // blocks about to go: coarsen everything that refines into them first
         removing_.clear();
-        changed_tiles_.clear();
-        auto note_block_cell = [&](DetailBlocks::CellXY c) {
-            // virtual cells past the grid belong to no tile
-            if (c.x < spec_.tilesX() * kTileCells && c.y < spec_.tilesY() * kTileCells)
-                changed_tiles_.push_back((c.y / kTileCells) * spec_.tilesX() + c.x / kTileCells);
-        };
         blocks_.plan(*terrain_, r, removing_);
         for (const std::int32_t block : removing_) {
-            note_block_cell(blocks_.cellOf(block));
             const DetailBlocks::CellXY c = blocks_.cellOf(block);
             for (std::uint32_t local = 1; local < kDiamondsPerBlock; ++local)
                 deactivateSubtree(
@@ -326,6 +358,8 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
                 clearCandidate(id);
                 state_[id] = 0;
             }
+            // its slot in the tile's vertex array becomes a hole: nothing refers to it now
+            detachBlock(block);
         }
         removed_.clear();
         added_.clear();
@@ -338,15 +372,12 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
                 state_[id] = 0;
                 heap_pos_[id] = -1;
             }
-        // tiles whose block lists changed get new vertex arrays and a full index rewrite
-        for (const std::int32_t block : added_)
-            note_block_cell(blocks_.cellOf(block));
-        std::sort(changed_tiles_.begin(), changed_tiles_.end());
-        changed_tiles_.erase(
-            std::unique(changed_tiles_.begin(), changed_tiles_.end()), changed_tiles_.end());
-        for (const std::int32_t tile : changed_tiles_) {
-            rebuildTileBlocks(tile);
-            ++vertex_version_[idx(tile)]; // new vertex array, whatever happens to the indices
+        // a new block takes a hole or goes at the end of its tile's vertex array, so no index
+        // in the tile's list moves and nothing is re-emitted; the tile's vertices changed
+        for (const std::int32_t block : added_) {
+            attachBlock(block);
+            if (const std::int32_t tile = tileOfCell(blocks_.cellOf(block)); tile >= 0)
+                ++vertex_version_[idx(tile)];
         }
         // heights moved in these tiles
         for (std::int32_t ty = std::max(0, r.y0) / kTileCells;
@@ -359,8 +390,6 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
             (r.x0 - 1) * kLatticePerCell, (r.y0 - 1) * kLatticePerCell,
             (r.x1 + 2) * kLatticePerCell, (r.y1 + 2) * kLatticePerCell, true);
         if (initialized_ && !needs_rebuild_) {
-            for (const std::int32_t tile : changed_tiles_)
-                emitTile(tile);
             for (const DiamondId id : recomputed_)
                 refreshCandidate(id);
         }

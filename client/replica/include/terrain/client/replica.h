@@ -17,10 +17,11 @@
 
 namespace terrain::client {
 
-/// What changed since the last takeDirty(): whole tiles (snapshot, repair) and cell rectangles
-/// (ops), for re-tessellation and buffer uploads.
+/// What changed since the last takeDirty(): whole tiles (repairs) and cell rectangles (ops:
+/// the cells whose surface the op may have changed, nothing more), for re-tessellation and
+/// buffer uploads.
 struct DirtySet {
-    std::vector<std::int32_t> tiles; ///< ascending, unique
+    std::vector<std::int32_t> tiles; ///< repaired tiles, ascending, unique
     std::vector<CellRect> cells;     ///< one per op, in apply order
     bool all = false;                ///< a snapshot replaced everything
 };

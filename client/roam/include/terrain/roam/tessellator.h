@@ -74,7 +74,8 @@ struct FrameStats {
 };
 
 /// A tile's vertex array: the (kTileCells + 1)^2 base grid first, row by row, then one
-/// kBlockSide^2 block per detail cell.
+/// kBlockSide^2 block per detail cell, in the order the blocks came; a block that goes leaves a
+/// hole (unreferenced vertices, standing in for the tile's first vertex) for the next one.
 inline constexpr std::int32_t kTileBaseVertices = (kTileCells + 1) * (kTileCells + 1);
 
 /// A tile vertex: lattice position (1/16 cell) and height in fine units (1/16 quantum).
@@ -174,6 +175,9 @@ class Tessellator {
     void emitTile(std::int32_t tile);
     void emitTriangle(const Triangle& t, std::int32_t tile, TileMesh& mesh);
     void rebuildTileBlocks(std::int32_t tile);
+    std::int32_t tileOfCell(DetailBlocks::CellXY c) const; ///< -1 for virtual cells
+    void attachBlock(std::int32_t block);
+    void detachBlock(std::int32_t block);
 
     // frames
     void rebuildTopDown(const ViewMetric& m, FrameStats& stats);
@@ -218,8 +222,11 @@ class Tessellator {
     std::vector<TileMesh> tiles_;
     std::vector<std::uint8_t> tile_visible_;
     std::vector<std::uint32_t> vertex_version_;
-    std::vector<std::vector<std::int32_t>> tile_blocks_; ///< block slots, by cell
-    std::vector<std::int32_t> block_local_;              ///< block slot -> index in its tile
+    /// Block slots in each tile's vertex array (-1: a hole left by a block that went); a slot
+    /// keeps its place while its block lives, so index lists never move.
+    std::vector<std::vector<std::int32_t>> tile_blocks_;
+    std::vector<std::vector<std::int32_t>> tile_holes_; ///< free places in tile_blocks_
+    std::vector<std::int32_t> block_local_;             ///< block slot -> index in its tile
 
     // split/merge state
     struct HeapEntry {
@@ -242,7 +249,6 @@ class Tessellator {
     std::vector<std::int32_t> removing_;
     std::vector<std::int32_t> removed_;
     std::vector<std::int32_t> added_;
-    std::vector<std::int32_t> changed_tiles_;
     std::uint64_t written_before_ = 0;
     double last_error_scale_ = 0.0;
     double last_near_ = 0.0;

@@ -1,0 +1,263 @@
+// The client's side of a battle: what each crater costs a client, end to end. An authority
+// applies the battle generator's shots (untimed, up front); a Replica loaded from the
+// authority's snapshot then receives each op with the hash it produced, frame by frame, and a
+// Tessellator follows a camera over the fight. Per frame, timed on this thread:
+//   apply   Replica::applyOp (the core's apply and the hash check), for every op of the frame
+//   feed    surfaceChanges + feedChanges (Tessellator::terrainChanged)
+//   update  Tessellator::update for the frame's camera
+// One op arrives per frame, except every --burst-every frames, when --burst ops arrive at once.
+// Flights: "hover" (60 m above the zone, circling it, looking in), "cross" (10 m above the
+// ground, 20 m/s at 60 frames/s, across the zone and back).
+// The goals (client battle budget) are reported as met / not met, never asserted.
+// Exit status: 0; 1 when a replica hash differs from the authority's; 2 on a bad option.
+
+#include "support/bench_facts.h"
+
+#include <terrain/battle.h>
+#include <terrain/client/replica.h>
+#include <terrain/client/tessellation_feed.h>
+#include <terrain/procedural_map.h>
+#include <terrain/roam/camera.h>
+#include <terrain/roam/tessellator.h>
+#include <terrain/snapshot.h>
+#include <terrain/surface_query.h>
+#include <terrain/terrain.h>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+using namespace terrain;
+using Json = nlohmann::ordered_json;
+
+std::size_t residentBytes() {
+    std::ifstream in("/proc/self/status");
+    std::string line;
+    while (std::getline(in, line))
+        if (line.rfind("VmRSS:", 0) == 0)
+            return static_cast<std::size_t>(std::stoull(line.substr(6))) * 1024;
+    return 0;
+}
+
+struct SentOp {
+    DeformOp op;
+    std::uint64_t world_hash = 0;
+};
+
+Json summaryJson(const bench::Summary& s) {
+    return Json{{"n", s.n}, {"p50", s.p50}, {"p99", s.p99}, {"max", s.max}, {"mean", s.mean}};
+}
+
+// The camera of frame `f`: see the header comment.
+roam::Camera flightCamera(
+    const std::string& flight,
+    int f,
+    const Terrain& t,
+    const BattleOptions& o,
+    int width,
+    int height) {
+    constexpr double kPi = 3.14159265358979323846;
+    roam::Camera c;
+    c.viewport_width = width;
+    c.viewport_height = height;
+    c.near_plane = 0.5;
+    const glm::dvec3 zone(o.zone_x, o.zone_y, surfaceHeight(t, o.zone_x, o.zone_y));
+    if (flight == "hover") {
+        const double a = 0.2 * kPi / 180.0 * f; // a turn in 30 s
+        const double range = 80.0;
+        c.eye = glm::dvec3(zone.x + range * std::cos(a), zone.y + range * std::sin(a), 0.0);
+        c.eye.z = zone.z + 60.0;
+        c.forward = zone - c.eye;
+        return c;
+    }
+    // cross: 20 m/s at 60 frames/s, from 150 m before the zone to 150 m past it, and back
+    const double leg = 300.0;
+    const double s = std::fmod(f * 20.0 / 60.0, 2.0 * leg);
+    const double along = s < leg ? s - leg / 2 : leg / 2 - (s - leg);
+    const double dir = s < leg ? 1.0 : -1.0;
+    c.eye = glm::dvec3(zone.x + along, zone.y + 5.0, 0.0);
+    c.eye.z = surfaceHeight(t, c.eye.x, c.eye.y) + 10.0;
+    c.forward = glm::dvec3(dir, 0.0, -0.25);
+    return c;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"client_battle_bench: a battle's ops on a client replica and tessellator"};
+    int shots = 2000;
+    int burst = 20;
+    int burst_every = 100;
+    double tau = 1.0;
+    std::int64_t max_triangles = 400'000;
+    int width = 1280;
+    int height = 720;
+    std::string flight = "hover";
+    ProceduralMapOptions map;
+    BattleOptions o;
+    std::string out;
+    app.add_option("--shots", shots, "battle shots (the ops the client receives)")
+        ->check(CLI::PositiveNumber);
+    app.add_option("--burst", burst, "ops arriving in one frame every --burst-every frames")
+        ->check(CLI::PositiveNumber);
+    app.add_option("--burst-every", burst_every, "frames between bursts")
+        ->check(CLI::PositiveNumber);
+    app.add_option("--tau", tau, "screen-error threshold, pixels")->check(CLI::PositiveNumber);
+    app.add_option("--max-triangles", max_triangles, "the tessellator's triangle cap")
+        ->check(CLI::PositiveNumber);
+    app.add_option("--width", width, "viewport width")->check(CLI::Range(64, 8192));
+    app.add_option("--height", height, "viewport height")->check(CLI::Range(64, 8192));
+    app.add_option("--flight", flight, "hover | cross")->check(CLI::IsMember({"hover", "cross"}));
+    app.add_option("--map-size", map.width, "procedural map size in vertices")
+        ->check(CLI::Range(65, 8193));
+    app.add_option("--seed", o.seed, "battle seed");
+    app.add_option("--out", out, "JSON report");
+    CLI11_PARSE(app, argc, argv);
+
+    map.height = map.width;
+    Terrain authority = std::move(*makeProceduralMap(map));
+    const WorldSpec& spec = authority.spec();
+    o.zone_x = spec.extentX() / 2;
+    o.zone_y = spec.extentY() / 2;
+    const std::vector<std::uint8_t> snapshot = encodeSnapshot(authority, 0);
+
+    // the authority's side, untimed: the ops and the hash each produced
+    std::vector<SentOp> sent;
+    BattleGenerator generator(o);
+    for (int i = 0; i < shots; ++i) {
+        const BattleShot shot = generator.next(authority);
+        if (!shot.crater)
+            continue;
+        auto op = quantizeOp(*shot.crater, spec);
+        if (!op || !authority.apply(*op))
+            continue;
+        sent.push_back({*op, authority.worldHash()});
+    }
+
+    client::Replica replica;
+    replica.loadSnapshot(std::move(*decodeSnapshot(snapshot)));
+    replica.takeDirty();
+    roam::TessellatorOptions to;
+    to.tau_pixels = tau;
+    to.max_triangles = max_triangles;
+    const auto build_start = bench::Clock::now();
+    roam::Tessellator tess(replica.terrain(), to);
+    tess.update(flightCamera(flight, 0, replica.terrain(), o, width, height));
+    const double first_frame_ms = bench::msSince(build_start);
+
+    std::vector<double> single_total, single_apply, single_feed, single_update;
+    std::vector<double> burst_total;
+    std::vector<double> frame_total;
+    std::vector<double> triangles;
+    int rebuilds = 0;
+    int capped_frames = 0;
+    bool hashes_agree = true;
+    std::size_t next = 0;
+    std::uint64_t seq = 0;
+    for (int f = 1; next < sent.size(); ++f) {
+        const int arriving = f % burst_every == 0 ? burst : 1;
+        const auto t0 = bench::Clock::now();
+        for (int k = 0; k < arriving && next < sent.size(); ++k, ++next) {
+            auto outcome = replica.applyOp(++seq, sent[next].op, sent[next].world_hash);
+            if (!outcome || *outcome != client::Replica::OpOutcome::kApplied)
+                hashes_agree = false;
+        }
+        const double apply_ms = bench::msSince(t0);
+        const auto t1 = bench::Clock::now();
+        client::feedChanges(
+            client::surfaceChanges(replica.takeDirty(), replica.terrain().spec()), tess);
+        const double feed_ms = bench::msSince(t1);
+        const auto t2 = bench::Clock::now();
+        const roam::FrameStats fs =
+            tess.update(flightCamera(flight, f, replica.terrain(), o, width, height));
+        const double update_ms = bench::msSince(t2);
+        const double total = apply_ms + feed_ms + update_ms;
+        frame_total.push_back(total);
+        triangles.push_back(static_cast<double>(fs.triangles));
+        rebuilds += fs.rebuilt ? 1 : 0;
+        capped_frames += fs.refused_by_cap > 0 ? 1 : 0;
+        if (arriving == 1) {
+            single_total.push_back(total);
+            single_apply.push_back(apply_ms);
+            single_feed.push_back(feed_ms);
+            single_update.push_back(update_ms);
+        } else {
+            burst_total.push_back(total);
+        }
+    }
+    if (replica.worldHash() != authority.worldHash())
+        hashes_agree = false;
+
+    const bench::Summary single = bench::summarize(single_total);
+    const bench::Summary bursts = bench::summarize(burst_total);
+    const bench::Summary frames = bench::summarize(frame_total);
+    const double tess_mib = bench::mib(tess.memoryBytes());
+    const double rss_mib = bench::mib(residentBytes());
+    const double burst_ratio = frames.p50 > 0 ? bursts.p50 / frames.p50 : 0.0;
+    Json report{
+        {"benchmark", "client_battle_bench"},
+        {"date", bench::isoNow()},
+        {"cpu", bench::cpuModel()},
+        {"map", "procedural " + std::to_string(map.width) + " x " + std::to_string(map.width)},
+        {"flight", flight},
+        {"viewport", std::to_string(width) + " x " + std::to_string(height)},
+        {"tau_pixels", tau},
+        {"max_triangles", max_triangles},
+        {"shots", shots},
+        {"ops", sent.size()},
+        {"hashes_agree", hashes_agree},
+        {"first_frame_ms", first_frame_ms},
+        {"crater_frame_ms",
+         Json{
+             {"total", summaryJson(single)},
+             {"apply", summaryJson(bench::summarize(single_apply))},
+             {"feed", summaryJson(bench::summarize(single_feed))},
+             {"update", summaryJson(bench::summarize(single_update))}}},
+        {"burst", Json{{"ops", burst}, {"frame_ms", summaryJson(bursts)}, {"ratio", burst_ratio}}},
+        {"frame_ms", summaryJson(frames)},
+        {"triangles", summaryJson(bench::summarize(triangles))},
+        {"rebuild_frames", rebuilds},
+        {"capped_frames", capped_frames},
+        {"tessellator_mib", tess_mib},
+        {"rss_mib", rss_mib},
+        {"goals", Json{
+                      {"crater_p50_le_1ms", single.p50 <= 1.0},
+                      {"crater_p99_le_3ms", single.p99 <= 3.0},
+                      {"burst_le_2x_median_frame", burst_ratio <= 2.0},
+                      {"no_rebuild", rebuilds == 0},
+                      {"tessellator_le_32mb", tess_mib <= 32.0}}}};
+    std::printf(
+        "client_battle_bench: %zu ops, %s flight, tau %.2g px, %d x %d\n", sent.size(),
+        flight.c_str(), tau, width, height);
+    std::printf(
+        "  crater frame ms: p50 %.2f p99 %.2f max %.2f (apply p50 %.2f, feed p50 %.2f, update "
+        "p50 %.2f)\n",
+        single.p50, single.p99, single.max, bench::summarize(single_apply).p50,
+        bench::summarize(single_feed).p50, bench::summarize(single_update).p50);
+    std::printf(
+        "  burst of %d: p50 %.2f ms (%.1fx the median frame %.2f ms); rebuild frames %d, capped "
+        "frames %d\n",
+        burst, bursts.p50, burst_ratio, frames.p50, rebuilds, capped_frames);
+    std::printf(
+        "  triangles p50 %.0f max %.0f; tessellator %.1f MiB, RSS %.1f MiB; first frame %.0f "
+        "ms; hashes %s\n",
+        bench::summarize(triangles).p50, bench::summarize(triangles).max, tess_mib, rss_mib,
+        first_frame_ms, hashes_agree ? "agree" : "DIFFER");
+    if (!out.empty()) {
+        std::ofstream file(out);
+        if (!file) {
+            std::fprintf(stderr, "client_battle_bench: cannot write %s\n", out.c_str());
+            return 2;
+        }
+        file << report.dump(2) << "\n";
+    }
+    return hashes_agree ? 0 : 1;
+}
