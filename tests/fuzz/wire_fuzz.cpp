@@ -157,7 +157,9 @@ void onRepair(const terrain::Terrain& t, const pb::RepairState& state) {
         check(record.tile >= 0 && record.tile < spec.tileCount());
         check(
             record.samples.size() == std::size_t{terrain::kTileVertices} * terrain::kTileVertices);
-        repaired.replaceTile(record.tile, record.samples, std::move(record.patches));
+        check(record.originals.size() == record.samples.size());
+        repaired.replaceTile(
+            record.tile, record.samples, record.originals, std::move(record.patches));
     }
     if (!repaired.checkInvariants().ok())
         return;
