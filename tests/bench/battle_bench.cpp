@@ -33,15 +33,6 @@ namespace {
 using namespace terrain;
 using Json = nlohmann::ordered_json;
 
-std::size_t residentBytes() {
-    std::ifstream in("/proc/self/status");
-    std::string line;
-    while (std::getline(in, line))
-        if (line.rfind("VmRSS:", 0) == 0)
-            return static_cast<std::size_t>(std::stoull(line.substr(6))) * 1024;
-    return 0;
-}
-
 // A picture of the battle zone from a low oblique camera: OSMesa, ROAM at tau = 1 px.
 terrain::Status
 renderView(const terrain::Terrain& t, const terrain::BattleOptions& o, const std::string& path) {
@@ -173,7 +164,7 @@ int main(int argc, char** argv) {
                     "strength\n";
     }
     testing::BattleFigures counts;
-    const std::size_t rss_before = residentBytes();
+    const std::size_t rss_before = bench::residentBytes();
     const auto started = bench::Clock::now();
     for (int i = 0; i < shots; ++i) {
         auto t0 = bench::Clock::now();
@@ -240,8 +231,9 @@ int main(int argc, char** argv) {
         {"terrain_mib", bench::mib(mem.total())},
         {"samples_mib", bench::mib(mem.sample_bytes)},
         {"patches_mib", bench::mib(mem.patch_bytes)},
-        {"rss_mib", bench::mib(residentBytes())},
-        {"rss_growth_mib", bench::mib(residentBytes() - std::min(rss_before, residentBytes()))}};
+        {"rss_mib", bench::mib(bench::residentBytes())},
+        {"rss_growth_mib",
+         bench::mib(bench::residentBytes() - std::min(rss_before, bench::residentBytes()))}};
     j["stability"] = {
         {"max_rise_m", f.max_rise_m},
         {"max_rise_own_m", f.max_rise_own_m},

@@ -38,15 +38,6 @@ namespace {
 using namespace terrain;
 using Json = nlohmann::ordered_json;
 
-std::size_t residentBytes() {
-    std::ifstream in("/proc/self/status");
-    std::string line;
-    while (std::getline(in, line))
-        if (line.rfind("VmRSS:", 0) == 0)
-            return static_cast<std::size_t>(std::stoull(line.substr(6))) * 1024;
-    return 0;
-}
-
 struct SentOp {
     DeformOp op;
     std::uint64_t world_hash = 0;
@@ -200,7 +191,7 @@ int main(int argc, char** argv) {
     const bench::Summary bursts = bench::summarize(burst_total);
     const bench::Summary frames = bench::summarize(frame_total);
     const double tess_mib = bench::mib(tess.memoryBytes());
-    const double rss_mib = bench::mib(residentBytes());
+    const double rss_mib = bench::mib(bench::residentBytes());
     const double burst_ratio = frames.p50 > 0 ? bursts.p50 / frames.p50 : 0.0;
     Json report{
         {"benchmark", "client_battle_bench"},

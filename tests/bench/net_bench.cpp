@@ -105,17 +105,6 @@ Json toJson(const Summary& s) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// process facts
-
-std::size_t rssBytes() {
-    std::ifstream in("/proc/self/status");
-    std::string line;
-    while (std::getline(in, line))
-        if (line.rfind("VmRSS:", 0) == 0)
-            return static_cast<std::size_t>(std::stoull(line.substr(6))) * 1024;
-    return 0;
-}
-// ---------------------------------------------------------------------------------------------
 // tokens and threads: tests/support/loopback.h (shared with the loopback tests)
 
 using terrain::testing::IoThread;
@@ -942,7 +931,7 @@ int main(int argc, char** argv) {
         "net_bench: %d clients (%d threads), %d ops to full clients, %d to light viewers, "
         "window %d\n",
         clients, client_threads, ops, light_ops, window);
-    const std::size_t rss_start = rssBytes();
+    const std::size_t rss_start = bench::residentBytes();
     Json memory = Json::object();
     Json wire_bytes = Json::object();
     Summary default_bytes;
@@ -954,7 +943,7 @@ int main(int argc, char** argv) {
         const WorldSpec spec = map.spec();
         malloc_trim(0);
         ServerThread srv(std::move(map), benchConfig());
-        const std::size_t rss_server = rssBytes();
+        const std::size_t rss_server = bench::residentBytes();
         ClientPool pool(client_threads);
         const std::uint16_t port = srv.port();
         const auto connect_start = Clock::now();
@@ -968,7 +957,7 @@ int main(int argc, char** argv) {
             std::fprintf(stderr, "net_bench: FAIL: not every light viewer joined\n");
             failed = true;
         }
-        const std::size_t rss_clients = rssBytes();
+        const std::size_t rss_clients = bench::residentBytes();
         FanoutResult fan = runDeform(
             srv, pool, grenadeCraters(spec, light_ops, 11), static_cast<std::size_t>(window), 0.0,
             120.0);
@@ -1078,9 +1067,9 @@ int main(int argc, char** argv) {
         const double gen_ms = msSince(gen_start);
         const WorldSpec spec = map.spec();
         malloc_trim(0);
-        const std::size_t rss_map = rssBytes();
+        const std::size_t rss_map = bench::residentBytes();
         ServerThread srv(std::move(map), benchConfig());
-        const std::size_t rss_server = rssBytes();
+        const std::size_t rss_server = bench::residentBytes();
         const std::size_t terrain_bytes_before =
             srv.call([&] { return srv.authority().terrain().memoryUsage().total(); });
 
@@ -1104,7 +1093,7 @@ int main(int argc, char** argv) {
             join_ms.push_back(
                 static_cast<double>(pool[i].joined_ns.load() - pool[i].started_ns) * 1e-6);
         const Summary joins = summarize(join_ms);
-        const std::size_t rss_clients = rssBytes();
+        const std::size_t rss_clients = bench::residentBytes();
         std::size_t replica_bytes = 0;
         pool.forEach([&](Receiver& r) {
             if (auto* c = dynamic_cast<BenchClient*>(&r); c && c->replica.ready())
@@ -1132,7 +1121,7 @@ int main(int argc, char** argv) {
                 std::fprintf(stderr, "  %s\n", n.c_str());
             failed = true;
         }
-        const std::size_t rss_after_ops = rssBytes();
+        const std::size_t rss_after_ops = bench::residentBytes();
         const std::size_t terrain_bytes_after =
             srv.call([&] { return srv.authority().terrain().memoryUsage().total(); });
 

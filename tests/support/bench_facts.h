@@ -1,7 +1,8 @@
 #pragma once
 
-// Helpers shared by the plain-main benchmarks (net_bench, roam_bench): wall-clock intervals,
-// nearest-rank order statistics, and facts about the machine and process for the JSON reports.
+// Helpers shared by the plain-main benchmarks (net_bench, roam_bench, battle_bench,
+// client_battle_bench): wall-clock intervals, nearest-rank order statistics, and facts about the
+// machine and process for the JSON reports.
 
 #include <algorithm>
 #include <chrono>
@@ -63,6 +64,16 @@ inline std::string isoNow() {
     gmtime_r(&t, &tm);
     std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
     return buf;
+}
+
+/// The process's resident set (VmRSS), bytes; 0 where /proc is not there.
+inline std::size_t residentBytes() {
+    std::ifstream in("/proc/self/status");
+    std::string line;
+    while (std::getline(in, line))
+        if (line.rfind("VmRSS:", 0) == 0)
+            return static_cast<std::size_t>(std::stoull(line.substr(6))) * 1024;
+    return 0;
 }
 
 inline double mib(std::size_t bytes) {

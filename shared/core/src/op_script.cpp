@@ -23,6 +23,23 @@ std::vector<std::string_view> splitFields(std::string_view line) {
     return out;
 }
 
+// The fields of the next line of `text` that has any (a '#' starts a comment), consumed from
+// `text`; `line_no` counts every line passed. False at the end.
+bool nextFields(std::string_view& text, int& line_no, std::vector<std::string_view>& fields) {
+    while (!text.empty()) {
+        const std::size_t eol = text.find('\n');
+        std::string_view line = text.substr(0, eol);
+        text = eol == std::string_view::npos ? std::string_view{} : text.substr(eol + 1);
+        ++line_no;
+        if (const std::size_t hash = line.find('#'); hash != std::string_view::npos)
+            line = line.substr(0, hash);
+        fields = splitFields(line);
+        if (!fields.empty())
+            return true;
+    }
+    return false;
+}
+
 bool parseNumber(std::string_view s, double& out) {
     const char* end = s.data() + s.size();
     const auto [ptr, ec] = std::from_chars(s.data(), end, out);
@@ -47,16 +64,8 @@ struct Rng {
 Result<std::vector<OpRequest>> parseOpScript(std::string_view text) {
     std::vector<OpRequest> ops;
     int line_no = 0;
-    while (!text.empty()) {
-        const std::size_t eol = text.find('\n');
-        std::string_view line = text.substr(0, eol);
-        text = eol == std::string_view::npos ? std::string_view{} : text.substr(eol + 1);
-        ++line_no;
-        if (const std::size_t hash = line.find('#'); hash != std::string_view::npos)
-            line = line.substr(0, hash);
-        const auto f = splitFields(line);
-        if (f.empty())
-            continue;
+    std::vector<std::string_view> f;
+    while (nextFields(text, line_no, f)) {
         auto fail = [&](std::initializer_list<std::string_view> rule) {
             // note: built by append; GCC 12 -O3 warns falsely (-Wrestrict) on chained operator+
             std::string message = "op script line ";
@@ -110,16 +119,8 @@ Result<std::vector<OpRequest>> parseOpScript(std::string_view text) {
 Result<std::vector<DeformOp>> parseCanonicalOps(std::string_view text) {
     std::vector<DeformOp> ops;
     int line_no = 0;
-    while (!text.empty()) {
-        const std::size_t eol = text.find('\n');
-        std::string_view line = text.substr(0, eol);
-        text = eol == std::string_view::npos ? std::string_view{} : text.substr(eol + 1);
-        ++line_no;
-        if (const std::size_t hash = line.find('#'); hash != std::string_view::npos)
-            line = line.substr(0, hash);
-        const auto f = splitFields(line);
-        if (f.empty())
-            continue;
+    std::vector<std::string_view> f;
+    while (nextFields(text, line_no, f)) {
         auto fail = [&](std::string_view rule) {
             std::string message = "canonical op script line ";
             message.append(std::to_string(line_no)).append(": ").append(rule);
