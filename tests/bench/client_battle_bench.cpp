@@ -148,6 +148,8 @@ int main(int argc, char** argv) {
     std::vector<double> burst_total;
     std::vector<double> frame_total;
     std::vector<double> triangles;
+    std::vector<double> error_bound; // pixels: tau, or what the cap forced
+    int threshold_moves = 0;
     int rebuilds = 0;
     int capped_frames = 0;
     bool hashes_agree = true;
@@ -167,12 +169,15 @@ int main(int argc, char** argv) {
             client::surfaceChanges(replica.takeDirty(), replica.terrain().spec()), tess);
         const double feed_ms = bench::msSince(t1);
         const auto t2 = bench::Clock::now();
+        const double threshold = tess.threshold();
         const roam::FrameStats fs =
             tess.update(flightCamera(flight, f, replica.terrain(), o, width, height));
+        threshold_moves += tess.threshold() != threshold ? 1 : 0;
         const double update_ms = bench::msSince(t2);
         const double total = apply_ms + feed_ms + update_ms;
         frame_total.push_back(total);
         triangles.push_back(static_cast<double>(fs.triangles));
+        error_bound.push_back(fs.error_bound_pixels);
         rebuilds += fs.rebuilt ? 1 : 0;
         capped_frames += fs.refused_by_cap > 0 ? 1 : 0;
         if (arriving == 1) {
@@ -215,6 +220,8 @@ int main(int argc, char** argv) {
         {"burst", Json{{"ops", burst}, {"frame_ms", summaryJson(bursts)}, {"ratio", burst_ratio}}},
         {"frame_ms", summaryJson(frames)},
         {"triangles", summaryJson(bench::summarize(triangles))},
+        {"error_bound_pixels", summaryJson(bench::summarize(error_bound))},
+        {"threshold_moves", threshold_moves},
         {"rebuild_frames", rebuilds},
         {"capped_frames", capped_frames},
         {"tessellator_mib", tess_mib},
@@ -238,8 +245,10 @@ int main(int argc, char** argv) {
         "frames %d\n",
         burst, bursts.p50, burst_ratio, frames.p50, rebuilds, capped_frames);
     std::printf(
+        "  error bound px: p50 %.2f max %.2f (threshold moved in %d frames)\n"
         "  triangles p50 %.0f max %.0f; tessellator %.1f MiB, RSS %.1f MiB; first frame %.0f "
         "ms; hashes %s\n",
+        bench::summarize(error_bound).p50, bench::summarize(error_bound).max, threshold_moves,
         bench::summarize(triangles).p50, bench::summarize(triangles).max, tess_mib, rss_mib,
         first_frame_ms, hashes_agree ? "agree" : "DIFFER");
     if (!out.empty()) {

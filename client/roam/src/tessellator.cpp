@@ -15,7 +15,7 @@ namespace terrain::roam {
 using namespace detail;
 
 Tessellator::Tessellator(const Terrain& terrain, const TessellatorOptions& options)
-    : terrain_(&terrain), options_(options) {
+    : terrain_(&terrain), options_(options), threshold_(options.tau_pixels) {
     terrainChanged({}, true);
 }
 
@@ -127,7 +127,7 @@ void Tessellator::evaluate(const ViewMetric& m, DiamondId id, FrameStats& stats)
     const Diamond d = diamondAt(pointOf(id));
     ++stats.evaluations;
     const Box box = boxOf(d, id);
-    const double tau = options_.tau_pixels;
+    const double tau = threshold_;
     if (box.lo.x > box.hi.x) {
         // wholly in the padding: never worth a triangle
         if ((st & kMergeCandidate) != 0)
@@ -139,22 +139,24 @@ void Tessellator::evaluate(const ViewMetric& m, DiamondId id, FrameStats& stats)
     const double any = m.screenErrorAtDistance(distance, delta);
     const double p = any > tau && !m.intersectsFrustum(box) ? 0.0 : any;
     // distance at which the priority crosses tau; priorities depend on the eye position only
-    const double threshold = m.errorScale() * delta / tau;
+    const double crossing = m.errorScale() * delta / tau;
     if ((st & kSplitCandidate) != 0) {
         if (p > tau) {
             splits_.push_back({p, id});
         } else if (any > tau) {
             state_[id] |= kWatched;
             watched_.push_back(id);
-        } else if (threshold > m.camera().near_plane) {
-            heapPush(id, travel_ + std::max(0.0, distance - threshold));
+        } else if (m.errorScale() * delta / options_.tau_pixels > m.camera().near_plane) {
+            // (tested at tau, not at the threshold: the threshold may fall back to tau, and
+            // then these must be in the heap)
+            heapPush(id, travel_ + std::max(0.0, distance - crossing));
         }
         return;
     }
     if (p <= tau)
         merges_.push_back({p, id});
     else // due when the eye has moved away far enough, or far enough to take it out of view
-        heapPush(id, travel_ + std::min(std::max(0.0, threshold - distance), m.exitSlack(box)));
+        heapPush(id, travel_ + std::min(std::max(0.0, crossing - distance), m.exitSlack(box)));
 }
 
 void Tessellator::collectCandidates(const Triangle& t) {
@@ -192,7 +194,7 @@ void Tessellator::refineTopDown(
     if (!active(id)) {
         const Diamond d = diamondAt(p);
         ++stats.evaluations;
-        if (priority(m, d, id) <= options_.tau_pixels)
+        if (priority(m, d, id) <= threshold_)
             return;
         if (!activate(d, id, false, stats)) {
             capped = refused_by_cap_;
@@ -204,46 +206,61 @@ void Tessellator::refineTopDown(
     refineTopDown(m, halves[1], stats, capped);
 }
 
-void Tessellator::refineBestFirst(const ViewMetric& m, FrameStats& stats) {
+double Tessellator::refineBestFirst(const ViewMetric& m, std::int64_t target, FrameStats& stats) {
     best_first_.clear();
-    auto push = [&](const Triangle& t) {
+    const auto by_priority = [](const auto& a, const auto& b) { return a.first < b.first; };
+    // the heap holds unsplit diamonds only: a split one (forced by a finer split) is walked
+    // through to its halves at once
+    auto push = [&](auto&& self, const Triangle& t) -> void {
         if (t.level >= kFinestTriangleLevel)
             return;
         const LatticePoint p = splitPoint(t);
         const DiamondId id = idOf(p);
         if (id == kNoDiamond)
             return;
+        if (active(id)) {
+            const auto halves = splitTriangle(t);
+            self(self, halves[0]);
+            self(self, halves[1]);
+            return;
+        }
         ++stats.evaluations;
-        const double pr = active(id) ? kInfinity : priority(m, diamondAt(p), id);
+        const double pr = priority(m, diamondAt(p), id);
         if (pr <= options_.tau_pixels)
             return;
         best_first_.push_back({pr, t});
-        std::push_heap(best_first_.begin(), best_first_.end(), [](const auto& a, const auto& b) {
-            return a.first < b.first;
-        });
+        std::push_heap(best_first_.begin(), best_first_.end(), by_priority);
     };
     for (std::int32_t tile = 0; tile < tileCount(); ++tile) {
         const Diamond root = tileRoot(tile);
         for (const LatticePoint a : apexes(root))
-            push(triangleOf(root, a));
+            push(push, triangleOf(root, a));
     }
-    while (!best_first_.empty()) {
-        std::pop_heap(best_first_.begin(), best_first_.end(), [](const auto& a, const auto& b) {
-            return a.first < b.first;
-        });
-        const Triangle t = best_first_.back().second;
+    while (!best_first_.empty() && triangles_ < target) {
+        std::pop_heap(best_first_.begin(), best_first_.end(), by_priority);
+        const auto entry = best_first_.back();
         best_first_.pop_back();
-        const LatticePoint p = splitPoint(t);
-        const DiamondId id = idOf(p);
-        if (!activate(diamondAt(p), id, false, stats)) {
-            if (refused_by_cap_)
-                break;
+        const LatticePoint p = splitPoint(entry.second);
+        if (active(idOf(p))) { // forced since it was pushed
+            push(push, entry.second);
             continue;
         }
-        const auto halves = splitTriangle(t);
-        push(halves[0]);
-        push(halves[1]);
+        if (!activate(diamondAt(p), idOf(p), false, stats)) {
+            if (refused_by_cap_) { // still wanted: it bounds the error
+                best_first_.push_back(entry);
+                std::push_heap(best_first_.begin(), best_first_.end(), by_priority);
+                break;
+            }
+            continue;
+        }
+        const auto halves = splitTriangle(entry.second);
+        push(push, halves[0]);
+        push(push, halves[1]);
     }
+    // every unsplit diamond is in the heap or below an entry (priorities only fall from parent
+    // to child), so the largest entry bounds the mesh's error; a forced split since an entry
+    // was pushed only splits more
+    return best_first_.empty() ? options_.tau_pixels : best_first_.front().first;
 }
 
 void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
@@ -264,18 +281,28 @@ void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
     }
     triangles_ = roots;
     refused_by_cap_ = false;
-    bool capped = false;
+    // a cap that bound before (the threshold is above tau) most likely binds again: go
+    // best-first at once rather than refine top-down until the cap stops it
+    bool capped = threshold_ > options_.tau_pixels;
+    threshold_ = options_.tau_pixels;
     for (std::int32_t tile = 0; tile < tileCount() && !capped; ++tile) {
         const Diamond root = tileRoot(tile);
         for (const LatticePoint a : apexes(root))
             refineTopDown(m, triangleOf(root, a), stats, capped);
     }
     if (capped) {
-        // the cap binds: spend the triangles where the error is largest, not where we began
+        // the cap binds: spend the triangles where the error is largest, not where we began.
+        // Split/merge stops short of the cap, so that the next frames have room to follow the
+        // view before the threshold must rise again.
         std::fill(state_.begin(), state_.end(), std::uint8_t{0});
         triangles_ = roots;
         refused_by_cap_ = false;
-        refineBestFirst(m, stats);
+        const std::int64_t target =
+            options_.mode == TessellationMode::kSplitMerge
+                ? static_cast<std::int64_t>(
+                      static_cast<double>(options_.max_triangles) * kCapTarget)
+                : options_.max_triangles;
+        threshold_ = std::max(options_.tau_pixels, refineBestFirst(m, target, stats));
     }
     for (std::int32_t tile = 0; tile < tileCount(); ++tile)
         emitTile(tile);
@@ -382,11 +409,14 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
                 continue;
             if (stats.splits + stats.merges >= options_.work_budget) {
                 deferred_.push_back(a.id);
+                unmet_ = std::max(unmet_, a.priority);
                 continue;
             }
             refused_by_cap_ = false;
-            if (!activate(diamondAt(pointOf(a.id)), a.id, false, stats))
+            if (!activate(diamondAt(pointOf(a.id)), a.id, false, stats)) {
                 deferred_.push_back(a.id);
+                unmet_ = std::max(unmet_, a.priority);
+            }
         }
         splits_.clear();
         if (stats.splits + stats.merges >= options_.work_budget) {
@@ -445,19 +475,19 @@ FrameStats Tessellator::update(const Camera& camera) {
         rebuildTopDown(m, stats);
         needs_rebuild_ = false;
         initialized_ = true;
-        frames_since_rebuild_ = 0;
         last_forward_ = glm::normalize(camera.forward);
         last_up_ = glm::normalize(camera.up);
         sweep_credit_ = 0.0;
     } else {
         travel_ += glm::length(camera.eye - last_eye_);
+        unmet_ = 0.0;
+        const double threshold = threshold_;
         updateSplitMerge(m, stats);
-        // at the cap, splits are refused in the order they come, not by need: now and then
-        // spend the cap again best-first, as a rebuild does, so the coarsening lands where the
-        // error matters least
-        if (stats.refused_by_cap > 0 && ++frames_since_rebuild_ >= options_.capped_rebuild_frames)
-            needs_rebuild_ = true;
+        stats.error_bound_pixels = std::max(threshold, unmet_);
+        followCap(stats);
     }
+    if (stats.rebuilt)
+        stats.error_bound_pixels = threshold_;
     last_eye_ = camera.eye;
     last_error_scale_ = m.errorScale();
     last_near_ = camera.near_plane;
@@ -473,8 +503,36 @@ bool Tessellator::splitAt(LatticePoint p, FrameStats& stats) {
     return activate(d, id, false, stats);
 }
 
+void Tessellator::followCap(const FrameStats& stats) {
+    // The cap wins over tau: raise the threshold a step whenever it refused a split, lower it a
+    // step towards tau when the mesh has room to spare. Each change re-examines every candidate
+    // against the new threshold (next frame), so the mesh stays the one a top-down build at the
+    // threshold makes: the best for its triangle count, with no rebuild. A step of 10 % up and
+    // 5 % down moves the count by less than the gap between kCapLow and the cap.
+    double next = threshold_;
+    if (stats.refused_by_cap > 0) {
+        // each refused split wanted at least two triangles more: a view that changed a lot
+        // takes a bigger step (as if the count went with the inverse of the threshold)
+        const double wanted = static_cast<double>(triangles_ + 2 * stats.refused_by_cap);
+        const double ratio = wanted / (kCapTarget * static_cast<double>(options_.max_triangles));
+        next = threshold_ * std::clamp(ratio, kCapStepUp, kCapStepMax);
+    } else if (
+        threshold_ > options_.tau_pixels &&
+        static_cast<double>(triangles_) < kCapLow * static_cast<double>(options_.max_triangles))
+        next = std::max(options_.tau_pixels, threshold_ / kCapStepDown);
+    if (next == threshold_)
+        return;
+    threshold_ = next;
+    for (const HeapEntry& e : heap_) {
+        heap_pos_[e.id] = -1;
+        due_.push_back(e.id);
+    }
+    heap_.clear();
+}
+
 void Tessellator::setTau(double tau_pixels) {
     options_.tau_pixels = tau_pixels;
+    threshold_ = tau_pixels;
     needs_rebuild_ = true;
 }
 

@@ -18,4 +18,14 @@ inline constexpr std::int32_t kBaseVertices = kTileVertices * kTileVertices;
 inline constexpr std::uint32_t kDiamondsPerBlock = kLatticePerCell * kLatticePerCell;
 inline constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
+// How split/merge follows a binding triangle cap (Tessellator::followCap): a rebuild fills this
+// share of the cap; the threshold rises by kCapStepUp (up to kCapStepMax when many splits were
+// refused) when the cap refuses a split, and falls by kCapStepDown while the mesh is under
+// kCapLow of the cap.
+inline constexpr double kCapTarget = 0.92;
+inline constexpr double kCapLow = 0.8;
+inline constexpr double kCapStepUp = 1.1;
+inline constexpr double kCapStepMax = 2.0;
+inline constexpr double kCapStepDown = 1.05;
+
 } // namespace terrain::roam::detail

@@ -20,9 +20,13 @@
 //    on the eye's position, not its direction; culling is re-checked by a sweep when the view
 //    turns), then merges (lowest first) and splits (highest first, forcing parents) run within a
 //    per-frame work budget; what is left is due next frame. A jump of the eye rebuilds top-down.
-// Splits that would exceed the triangle cap are refused (the mesh stays conforming); a rebuild
-// under the cap refines best-first, so the mesh is coarser where the priority is lowest, and
-// split/merge repeats such a rebuild every capped_rebuild_frames frames while the cap binds.
+// Splits that would exceed the triangle cap are refused (the mesh stays conforming). When the cap
+// binds, the budget wins over tau: a rebuild refines best-first (coarser where the priority is
+// lowest) and the largest priority left unsplit becomes the threshold; split/merge then refines
+// to that threshold instead of tau, raising it a step when the cap refuses a split and lowering
+// it towards tau when the mesh has room (followCap). The mesh is then always the one a top-down
+// build at the threshold makes, which is the best mesh for its count, with no periodic rebuild;
+// FrameStats::error_bound_pixels reports the threshold reached.
 //
 // Output per tile: a TileMesh of indices into the tile's vertex array, which is the 65 x 65 base
 // grid followed by one 17 x 17 block per detail cell of the tile (tileVertex()).
@@ -47,8 +51,6 @@ struct TessellatorOptions {
     TessellationMode mode = TessellationMode::kSplitMerge;
     /// Triangle cap (the pool): splits beyond it are refused.
     std::int64_t max_triangles = 4'000'000;
-    /// While the cap refuses splits, kSplitMerge rebuilds best-first every this many frames.
-    std::int32_t capped_rebuild_frames = 15;
     /// Splits + merges per frame in kSplitMerge; the rest waits for the next frame.
     std::int64_t work_budget = 1'000'000;
     /// An eye jump longer than this rebuilds top-down; 0 means 8 tiles.
@@ -69,6 +71,10 @@ struct FrameStats {
     std::int64_t visible_triangles = 0; ///< in tiles that intersect the frustum
     std::int64_t index_bytes_written = 0;
     std::int64_t index_bytes_total = 0; ///< size of every tile's index list
+    /// The screen error (pixels) every triangle of the mesh is within: tau, or the higher
+    /// threshold the triangle cap forced, or more while splits the frame wanted wait (cap or
+    /// work budget). Exact only when !budget_exhausted (waiting candidates were not all priced).
+    double error_bound_pixels = 0.0;
     bool rebuilt = false;
     bool budget_exhausted = false;
 };
@@ -98,6 +104,8 @@ class Tessellator {
     void terrainChanged(std::span<const CellRect> cells, bool all);
 
     void setTau(double tau_pixels);
+    /// The threshold the mesh is refined to: tau_pixels, or higher while the cap binds.
+    double threshold() const { return threshold_; }
     /// Splits the diamond centred at `p`, forcing every ancestor it needs, whatever the metric
     /// says (tools, tests); the next update() merges it again if it is not needed. Returns false
     /// if there is no such diamond or the cap refuses it.
@@ -181,7 +189,9 @@ class Tessellator {
 
     // frames
     void rebuildTopDown(const ViewMetric& m, FrameStats& stats);
-    void refineBestFirst(const ViewMetric& m, FrameStats& stats);
+    /// Splits best-first until `target` triangles; returns a bound on the error left.
+    double refineBestFirst(const ViewMetric& m, std::int64_t target, FrameStats& stats);
+    void followCap(const FrameStats& stats);
     void refineTopDown(const ViewMetric& m, const Triangle& t, FrameStats& stats, bool& capped);
     void collectCandidates(const Triangle& t);
     void updateSplitMerge(const ViewMetric& m, FrameStats& stats);
@@ -257,7 +267,8 @@ class Tessellator {
     bool refused_by_cap_ = false;
     bool initialized_ = false;
     bool needs_rebuild_ = true;
-    std::int32_t frames_since_rebuild_ = 0;
+    double threshold_ = 0.0; ///< tau, or higher while the cap binds (followCap)
+    double unmet_ = 0.0;     ///< largest priority of a split the frame wanted and did not make
     double travel_ = 0.0;
     glm::dvec3 last_eye_{0.0};
     glm::dvec3 last_forward_{0.0};
