@@ -60,6 +60,11 @@ int main(int argc, char** argv) {
         a->add_option("--max-triangles", config.max_triangles, "triangle cap (0: none)")
             ->check(CLI::NonNegativeNumber);
         a->add_option(
+             "--frame-ms", config.frame_ms,
+             "frame time to hold by lowering the triangle cap (0: off; default 50 when "
+             "rendering, off otherwise)")
+            ->check(CLI::NonNegativeNumber);
+        a->add_option(
             "--barrier", config.barrier_dir,
             "directory where bots started together meet before settling");
         a->add_option("--peers", config.peers, "bots meeting at --barrier, this one included")

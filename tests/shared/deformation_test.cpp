@@ -1,6 +1,7 @@
 #include "support/surface_checks.h"
 #include "support/terrain_builders.h"
 
+#include <terrain/battle.h>
 #include <terrain/deform_op.h>
 #include <terrain/patch_decision.h>
 #include <terrain/pointwise_op.h>
@@ -116,6 +117,53 @@ TEST(Deformation, onlyTouchedTilesChangeTheirHash) {
     }
     EXPECT_EQ(e->dirty_tiles, (std::vector<std::int32_t>{6, 7})); // 5 tiles per row
     EXPECT_EQ(testing::freshHash(t), t.worldHash());
+}
+
+TEST(Deformation, theChangedCellsCoverEveryCellWhoseSurfaceChanged) {
+    // OpEffect::cells is what a client re-derives after an op (detail blocks, bounds): a cell
+    // whose patch changed outside it (border enforcement straightens or drops patches one ring
+    // past the footprint) would be drawn stale. Shots of a battle, each compared cell by cell.
+    Terrain t = testing::makeHills(5, 160, 160);
+    BattleOptions o;
+    o.seed = 3;
+    o.zone_x = 80;
+    o.zone_y = 80;
+    BattleGenerator generator(o);
+    int outside_footprint = 0;
+    for (int shot = 0; shot < 150; ++shot) {
+        const BattleShot s = generator.next(t);
+        if (!s.crater)
+            continue;
+        const Terrain before = t;
+        auto e = applyRequest(t, *s.crater);
+        ASSERT_TRUE(e.ok()) << e.error().message;
+        for (std::int32_t cy = 0; cy < t.spec().cellsY(); ++cy)
+            for (std::int32_t cx = 0; cx < t.spec().cellsX(); ++cx) {
+                const DetailPatch* a = before.findPatch(cx, cy);
+                const DetailPatch* b = t.findPatch(cx, cy);
+                const CellCorners ca = before.corners(cx, cy);
+                const CellCorners cb = t.corners(cx, cy);
+                const bool changed = (a == nullptr) != (b == nullptr) ||
+                                     (a != nullptr && a->control != b->control) ||
+                                     ca.h00 != cb.h00 || ca.h10 != cb.h10 || ca.h01 != cb.h01 ||
+                                     ca.h11 != cb.h11;
+                if (!changed)
+                    continue;
+                const CellRect& r = e->cells;
+                EXPECT_TRUE(cx >= r.x0 && cx <= r.x1 && cy >= r.y0 && cy <= r.y1)
+                    << "shot " << shot << ": cell " << cx << ", " << cy << " changed outside "
+                    << r.x0 << ".." << r.x1 << " x " << r.y0 << ".." << r.y1;
+                // the cells meeting the footprint's box, as apply() finds them
+                const DeformOp op = quantizeOp(*s.crater, t.spec()).value();
+                const std::int64_t reach = footprintRadius(op);
+                const std::int64_t h = t.spec().spacing;
+                const bool in_box =
+                    cx >= (op.center_x - reach) / h && cx <= (op.center_x + reach) / h &&
+                    cy >= (op.center_y - reach) / h && cy <= (op.center_y + reach) / h;
+                outside_footprint += in_box ? 0 : 1;
+            }
+    }
+    EXPECT_GT(outside_footprint, 0) << "the battle must reach the ring past the footprint";
 }
 
 TEST(Deformation, incrementalHashEqualsRecomputedHashAfterManyOps) {

@@ -1,5 +1,6 @@
 #include <terrain/bot/bot.h>
 #include <terrain/client/connection.h>
+#include <terrain/client/frame_budget.h>
 #include <terrain/client/replica.h>
 #include <terrain/client/tessellation_feed.h>
 #include <terrain/render/terrain_renderer.h>
@@ -99,6 +100,12 @@ Result<BotReport> runBot(const BotConfig& config) {
     to.tau_pixels = config.tau_pixels;
     to.max_triangles = config.max_triangles;
     roam::Tessellator tess(replica.terrain(), to);
+    client::FrameBudgetOptions bo;
+    bo.target_ms = config.frame_ms >= 0.0 ? config.frame_ms
+                   : config.render        ? kDefaultRenderFrameMs
+                                          : 0.0;
+    bo.max_triangles = config.max_triangles;
+    client::FrameBudget budget(bo);
 
     Renderer gpu;
     if (config.render) {
@@ -131,6 +138,8 @@ Result<BotReport> runBot(const BotConfig& config) {
     std::vector<double> triangles;
     std::vector<double> visible;
     std::vector<double> uploads;
+    std::vector<double> caps;
+    std::vector<double> error_bounds;
     // what the replica changed goes to the tessellator and, for normals, to the renderer
     const auto absorb = [&] {
         const client::SurfaceChanges changes =
@@ -144,8 +153,10 @@ Result<BotReport> runBot(const BotConfig& config) {
         io.restart();
         absorb();
         const Clock::time_point t1 = Clock::now();
+        caps.push_back(static_cast<double>(tess.options().max_triangles));
         const roam::FrameStats fs = tess.update(camera);
         tessellate_ms.push_back(msSince(t1));
+        error_bounds.push_back(fs.error_bound_pixels);
         triangles.push_back(static_cast<double>(fs.triangles));
         visible.push_back(static_cast<double>(fs.visible_triangles));
         if (gpu.terrain) {
@@ -157,6 +168,7 @@ Result<BotReport> runBot(const BotConfig& config) {
             uploads.push_back(static_cast<double>(up.bytes()));
         }
         frame_ms.push_back(msSince(t0));
+        tess.setMaxTriangles(budget.observe(frame_ms.back(), fs.triangles));
     };
 
     const Clock::time_point run_start = Clock::now();
@@ -243,6 +255,8 @@ Result<BotReport> runBot(const BotConfig& config) {
     report.frame_ms = Spread::of(frame_ms);
     report.triangles = Spread::of(triangles);
     report.visible_triangles = Spread::of(visible);
+    report.triangle_cap = Spread::of(caps);
+    report.error_bound_pixels = Spread::of(error_bounds);
     report.upload_bytes_per_frame = Spread::of(uploads);
     if (gpu.terrain) {
         report.vertex_bytes = gpu.terrain->totals().vertex_bytes;

@@ -66,6 +66,8 @@ std::string toJson(const BotReport& r) {
         {"frame_ms", spreadJson(r.frame_ms)},
         {"triangles", spreadJson(r.triangles)},
         {"visible_triangles", spreadJson(r.visible_triangles)},
+        {"triangle_cap", spreadJson(r.triangle_cap)},
+        {"error_bound_pixels", spreadJson(r.error_bound_pixels)},
         {"upload",
          {{"bytes", r.upload_bytes},
           {"vertex_bytes", r.vertex_bytes},
@@ -124,6 +126,8 @@ Result<BotReport> readReport(const std::filesystem::path& path) {
         r.frame_ms = spreadFrom(j.at("frame_ms"));
         r.triangles = spreadFrom(j.at("triangles"));
         r.visible_triangles = spreadFrom(j.at("visible_triangles"));
+        r.triangle_cap = spreadFrom(j.at("triangle_cap"));
+        r.error_bound_pixels = spreadFrom(j.at("error_bound_pixels"));
         const json& u = j.at("upload");
         r.upload_bytes = u.at("bytes").get<std::uint64_t>();
         r.vertex_bytes = u.at("vertex_bytes").get<std::uint64_t>();

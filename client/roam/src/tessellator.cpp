@@ -270,6 +270,7 @@ void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
         heap_pos_[e.id] = -1;
     heap_.clear();
     watched_.clear();
+    rekey_.clear();
     due_.clear();
     splits_.clear();
     merges_.clear();
@@ -481,7 +482,10 @@ FrameStats Tessellator::update(const Camera& camera) {
     } else {
         travel_ += glm::length(camera.eye - last_eye_);
         unmet_ = 0.0;
-        const double threshold = threshold_;
+        // while a threshold move is being spread, candidates not yet re-examined still hold to
+        // the threshold before it
+        const double threshold = rekey_.empty() ? threshold_ : std::max(threshold_, rekey_from_);
+        spreadRekey();
         updateSplitMerge(m, stats);
         stats.error_bound_pixels = std::max(threshold, unmet_);
         followCap(stats);
@@ -510,7 +514,7 @@ void Tessellator::followCap(const FrameStats& stats) {
     // threshold makes: the best for its triangle count, with no rebuild. A step of 10 % up and
     // 5 % down moves the count by less than the gap between kCapLow and the cap.
     double next = threshold_;
-    if (stats.refused_by_cap > 0) {
+    if (stats.refused_by_cap > 0 || triangles_ > options_.max_triangles) { // or a lower cap
         // each refused split wanted at least two triangles more: a view that changed a lot
         // takes a bigger step (as if the count went with the inverse of the threshold)
         const double wanted = static_cast<double>(triangles_ + 2 * stats.refused_by_cap);
@@ -520,14 +524,28 @@ void Tessellator::followCap(const FrameStats& stats) {
         threshold_ > options_.tau_pixels &&
         static_cast<double>(triangles_) < kCapLow * static_cast<double>(options_.max_triangles))
         next = std::max(options_.tau_pixels, threshold_ / kCapStepDown);
-    if (next == threshold_)
+    if (next == threshold_ || !rekey_.empty()) // one move at a time
         return;
+    rekey_from_ = threshold_;
     threshold_ = next;
-    for (const HeapEntry& e : heap_) {
-        heap_pos_[e.id] = -1;
-        due_.push_back(e.id);
+    rekey_.clear();
+    for (const HeapEntry& e : heap_)
+        rekey_.push_back(e.id);
+    rekey_quota_ = std::max(rekey_.size() / kRekeyFrames + 1, kRekeyAtOnce);
+}
+
+void Tessellator::spreadRekey() {
+    // the candidates keyed against the old threshold, re-examined over kRekeyFrames frames
+    // rather than all in one (a few hundred thousand at a binding cap: tens of milliseconds);
+    // a small heap goes at once
+    for (std::size_t k = 0; k < rekey_quota_ && !rekey_.empty(); ++k) {
+        const DiamondId id = rekey_.back();
+        rekey_.pop_back();
+        if (heap_pos_[id] < 0)
+            continue; // re-examined since, so keyed against the new threshold
+        heapRemove(id);
+        due_.push_back(id);
     }
-    heap_.clear();
 }
 
 void Tessellator::setTau(double tau_pixels) {

@@ -111,6 +111,14 @@ std::int64_t Tessellator::heightAt(LatticePoint p) const {
         cy -= 1;
         l += kLatticePerCell;
     }
+    // on the real map's last line the surface is the real cell's (its patch border faces the
+    // padding and need not be straight), as drawn; the padding's cells start past it
+    if (k == 0 && cx == spec_.cellsX())
+        if (const std::int32_t b = blocks_.blockOf(cx - 1, cy); b >= 0)
+            return blocks_.height(b, kLatticePerCell, l);
+    if (l == 0 && cy == spec_.cellsY())
+        if (const std::int32_t b = blocks_.blockOf(cx, cy - 1); b >= 0)
+            return blocks_.height(b, k, kLatticePerCell);
     if (const std::int32_t b = blocks_.blockOf(cx, cy); b >= 0)
         return blocks_.height(b, k, l);
     if (k == 0)
@@ -138,6 +146,14 @@ void Tessellator::resizeDiamondState() {
 
 // ---- error bounds -------------------------------------------------------------------------
 
+bool Tessellator::storeBounds(DiamondId id, float delta, float zlo, float zhi) {
+    const bool changed = delta_[id] != delta || zlo_[id] != zlo || zhi_[id] != zhi;
+    delta_[id] = delta;
+    zlo_[id] = zlo;
+    zhi_[id] = zhi;
+    return changed;
+}
+
 double Tessellator::childBounds(LatticePoint c, double& zlo, double& zhi) const {
     const DiamondId id = idOf(c);
     if (id != kNoDiamond) {
@@ -161,7 +177,7 @@ double Tessellator::childBounds(LatticePoint c, double& zlo, double& zhi) const 
     return 0.0;
 }
 
-void Tessellator::computeBounds(const Diamond& d, DiamondId id) {
+bool Tessellator::computeBounds(const Diamond& d, DiamondId id) {
     const auto ends = hypotenuseEnds(d);
     const std::int64_t zc = heightAt(d.centre);
     const std::int64_t z0 = heightAt(ends[0]);
@@ -198,9 +214,62 @@ void Tessellator::computeBounds(const Diamond& d, DiamondId id) {
                 child = std::max(child, childBounds(kids[idx(i)], lo, hi));
     }
     const double delta = local + child;
-    delta_[id] = roundUp(delta);
-    zlo_[id] = roundDown(std::min(static_cast<double>(own_lo) * metres_per_fine_ - delta, lo));
-    zhi_[id] = roundUp(std::max(static_cast<double>(own_hi) * metres_per_fine_ + delta, hi));
+    return storeBounds(
+        id, roundUp(delta),
+        roundDown(std::min(static_cast<double>(own_lo) * metres_per_fine_ - delta, lo)),
+        roundUp(std::max(static_cast<double>(own_hi) * metres_per_fine_ + delta, hi)));
+}
+
+bool Tessellator::computeBlockBounds(const Diamond& d, DiamondId id, std::int32_t block) {
+    // computeBounds for a diamond strictly inside its cell (local x and y both > 0): its centre,
+    // hypotenuse ends, apexes and children all lie in the cell's 17 x 17 block, so heights come
+    // straight from the block and most child ids from the block's own id range. Same arithmetic
+    // as computeBounds, so the same floats (tested: RoamMesh bounds survive either path).
+    const std::int32_t ox = blocks_.cellOf(block).x * kLatticePerCell;
+    const std::int32_t oy = blocks_.cellOf(block).y * kLatticePerCell;
+    const auto h = [&](LatticePoint p) { return blocks_.height(block, p.x - ox, p.y - oy); };
+    const auto ends = hypotenuseEnds(d);
+    const std::int64_t zc = h(d.centre);
+    const std::int64_t z0 = h(ends[0]);
+    const std::int64_t z1 = h(ends[1]);
+    std::int64_t own_lo = std::min({zc, z0, z1});
+    std::int64_t own_hi = std::max({zc, z0, z1});
+    const auto tips = apexes(d);
+    for (const LatticePoint a : tips) {
+        const std::int64_t z = h(a);
+        own_lo = std::min(own_lo, z);
+        own_hi = std::max(own_hi, z);
+    }
+    const double local = static_cast<double>(std::llabs(2 * zc - z0 - z1)) * 0.5 * metres_per_fine_;
+    double child = 0.0;
+    double lo = kInfinity;
+    double hi = -kInfinity;
+    if (d.level == kMaxDiamondLevel) {
+        // both triangles lie in this cell
+        child = static_cast<double>(blocks_.finestError(block)) * metres_per_fine_;
+    } else {
+        std::array<LatticePoint, 4> kids{};
+        const int n = children(d, kids);
+        const DiamondId base = grid_count_ + static_cast<DiamondId>(block) * kDiamondsPerBlock;
+        for (int i = 0; i < n; ++i) {
+            const LatticePoint c = kids[idx(i)];
+            const std::int32_t k = c.x - ox;
+            const std::int32_t l = c.y - oy;
+            if (k < kLatticePerCell && l < kLatticePerCell && (k | l) != 0) {
+                const DiamondId cid = base + static_cast<DiamondId>(l * kLatticePerCell + k);
+                lo = std::min(lo, static_cast<double>(zlo_[cid]));
+                hi = std::max(hi, static_cast<double>(zhi_[cid]));
+                child = std::max(child, static_cast<double>(delta_[cid]));
+            } else {
+                child = std::max(child, childBounds(c, lo, hi));
+            }
+        }
+    }
+    const double delta = local + child;
+    return storeBounds(
+        id, roundUp(delta),
+        roundDown(std::min(static_cast<double>(own_lo) * metres_per_fine_ - delta, lo)),
+        roundUp(std::max(static_cast<double>(own_hi) * metres_per_fine_ + delta, hi)));
 }
 
 void Tessellator::recomputeBounds(
@@ -215,6 +284,8 @@ void Tessellator::recomputeBounds(
         const std::int32_t cy1 = std::min(blocks_.cellsY() - 1, (ly1 + reach) / kLatticePerCell);
         auto visit_block = [&](std::int32_t block) {
             const DetailBlocks::CellXY c = blocks_.cellOf(block);
+            // a cell of the padded grid, not a virtual one past it
+            const bool inner_cell = c.x < grid_w_ - 1 && c.y < grid_h_ - 1;
             for (const std::uint8_t local : positions[idx(level)]) {
                 const LatticePoint p{
                     c.x * kLatticePerCell + local % kLatticePerCell,
@@ -223,8 +294,11 @@ void Tessellator::recomputeBounds(
                     continue; // a virtual cell's diamonds past the map's last line
                 const DiamondId id =
                     grid_count_ + static_cast<DiamondId>(block) * kDiamondsPerBlock + local;
-                computeBounds(diamondAt(p), id);
-                if (collect)
+                const bool changed =
+                    inner_cell && local % kLatticePerCell != 0 && local >= kLatticePerCell
+                        ? computeBlockBounds(diamondAt(p), id, block)
+                        : computeBounds(diamondAt(p), id);
+                if (collect && changed)
                     recomputed_.push_back(id);
             }
         };
@@ -252,8 +326,7 @@ void Tessellator::recomputeBounds(
                 if (d.level != level)
                     continue;
                 const DiamondId id = idOf(d.centre);
-                computeBounds(d, id);
-                if (collect)
+                if (computeBounds(d, id) && collect)
                     recomputed_.push_back(id);
             }
     }

@@ -27,5 +27,8 @@ inline constexpr double kCapLow = 0.8;
 inline constexpr double kCapStepUp = 1.1;
 inline constexpr double kCapStepMax = 2.0;
 inline constexpr double kCapStepDown = 1.05;
+/// A threshold move re-examines the candidates keyed against the old one over this many frames.
+inline constexpr std::size_t kRekeyFrames = 8;
+inline constexpr std::size_t kRekeyAtOnce = 16384; ///< or at least this many per frame
 
 } // namespace terrain::roam::detail

@@ -329,6 +329,7 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
         std::fill(heap_pos_.begin(), heap_pos_.end(), -1);
         heap_.clear();
         watched_.clear();
+        rekey_.clear();
         due_.clear();
         for (std::int32_t tile = 0; tile < tileCount(); ++tile) {
             rebuildTileBlocks(tile);
@@ -339,9 +340,14 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
         return;
     }
     FrameStats ignored;
-    for (const CellRect& r : cells) {
-        if (r.empty())
-            continue;
+    // ops of one frame often overlap (shots land where the fight is): work through the union of
+    // rectangles that overlap enough, so that a block and its bounds are redone once, not per op
+    merged_.clear();
+    for (const CellRect& r : cells)
+        if (!r.empty())
+            merged_.push_back(r);
+    mergeOverlapping(merged_);
+    for (const CellRect& r : merged_) {
         // blocks about to go: coarsen everything that refines into them first
         removing_.clear();
         blocks_.plan(*terrain_, r, removing_);
@@ -371,6 +377,7 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
                     grid_count_ + static_cast<DiamondId>(block) * kDiamondsPerBlock + local;
                 state_[id] = 0;
                 heap_pos_[id] = -1;
+                delta_[id] = -1.0f; // no bound yet: recomputeBounds must see it change
             }
         // a new block takes a hole or goes at the end of its tile's vertex array, so no index
         // in the tile's list moves and nothing is re-emitted; the tile's vertices changed
@@ -393,6 +400,33 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
             for (const DiamondId id : recomputed_)
                 refreshCandidate(id);
         }
+    }
+}
+
+void Tessellator::mergeOverlapping(std::vector<CellRect>& rects) {
+    const auto area = [](const CellRect& r) {
+        return static_cast<std::int64_t>(r.x1 - r.x0 + 1) * (r.y1 - r.y0 + 1);
+    };
+    // merge two whenever their union costs no more than the two apart; passes until none do
+    bool merged = true;
+    while (merged) {
+        merged = false;
+        for (std::size_t i = 0; i < rects.size(); ++i)
+            for (std::size_t j = i + 1; j < rects.size();) {
+                const CellRect& a = rects[i];
+                const CellRect& b = rects[j];
+                const CellRect u{
+                    std::min(a.x0, b.x0), std::min(a.y0, b.y0), std::max(a.x1, b.x1),
+                    std::max(a.y1, b.y1)};
+                if (area(u) <= area(a) + area(b)) {
+                    rects[i] = u;
+                    rects[j] = rects.back();
+                    rects.pop_back();
+                    merged = true;
+                } else {
+                    ++j;
+                }
+            }
     }
 }
 

@@ -4,6 +4,7 @@
 #include "window_input.h"
 
 #include <terrain/client/connection.h>
+#include <terrain/client/frame_budget.h>
 #include <terrain/client/replica.h>
 #include <terrain/client/tessellation_feed.h>
 #include <terrain/procedural_map.h>
@@ -159,6 +160,7 @@ class Viewer {
     asio::io_context io_;
     std::shared_ptr<client::Connection> connection_;
     std::unique_ptr<roam::Tessellator> tess_;
+    std::unique_ptr<client::FrameBudget> budget_;
     std::optional<FlyCamera> camera_;
 
     OverlayControls controls_;
@@ -322,6 +324,8 @@ Status Viewer::join() {
     to.tau_pixels = options_.tau_pixels;
     to.max_triangles = options_.max_triangles;
     tess_ = std::make_unique<roam::Tessellator>(replica_.terrain(), to);
+    budget_ = std::make_unique<client::FrameBudget>(client::FrameBudgetOptions{
+        .target_ms = options_.frame_ms, .max_triangles = options_.max_triangles});
     applied_tau_ = options_.tau_pixels;
     camera_.emplace(startCamera(replica_.terrain()));
     controls_.speed = static_cast<float>(camera_->speed);
@@ -406,6 +410,7 @@ Status Viewer::loop() {
         const double draw_ms = 1000.0 * secondsBetween(t1, t2);
         tess_ms_.push(tess_ms);
         draw_ms_.push(draw_ms);
+        tess_->setMaxTriangles(budget_->observe(tess_ms + draw_ms, last_stats_.triangles));
         if (keep_all_) {
             all_tess_ms_.push_back(tess_ms);
             all_draw_ms_.push_back(draw_ms);

@@ -27,6 +27,9 @@ void addViewerOptions(CLI::App& app, ViewerOptions& o) {
     app.add_option("--height", o.height, "window height in pixels");
     app.add_option("--tau", o.tau_pixels, "screen-space error bound in pixels");
     app.add_option("--max-triangles", o.max_triangles, "tessellation triangle cap");
+    app.add_option(
+        "--frame-ms", o.frame_ms,
+        "frame time to hold by lowering the triangle cap (0: off; tau then wins)");
     app.add_flag("--wireframe", o.wireframe, "start drawing lines over the shading");
     app.add_option("--crater-radius", o.crater_radius, "crater radius in metres");
     app.add_option("--crater-depth", o.crater_depth, "crater depth in metres");
@@ -45,6 +48,8 @@ Status finishViewerOptions(ViewerOptions& o) {
         return rule("--tau must be > 0 (pixels)");
     if (o.max_triangles < 1000)
         return rule("--max-triangles must be >= 1000");
+    if (!(o.frame_ms >= 0.0) || !std::isfinite(o.frame_ms))
+        return rule("--frame-ms must be >= 0 (milliseconds; 0 turns the budget off)");
     if (o.width < 1 || o.width > 16384 || o.height < 1 || o.height > 16384)
         return rule("--width and --height must be within 1..16384");
     if (o.size < 65 || o.size > 8193)

@@ -323,6 +323,10 @@ Result<OpEffect> Terrain::apply(const DeformOp& op) {
             }
             changes.push_back(change);
             effect.dirty_tiles.push_back(change.tile);
+            // border enforcement reaches one ring past the footprint's cells
+            effect.cells = {
+                std::min(effect.cells.x0, cx), std::min(effect.cells.y0, cy),
+                std::max(effect.cells.x1, cx), std::max(effect.cells.y1, cy)};
         }
     std::sort(changes.begin(), changes.end(), [](const PatchChange& a, const PatchChange& b) {
         return a.tile != b.tile ? a.tile < b.tile : a.cell < b.cell;

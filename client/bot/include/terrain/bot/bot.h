@@ -24,6 +24,9 @@ struct BotConfig {
     ScriptOptions script;
     double tau_pixels = 2.0;
     std::int64_t max_triangles = 400000;
+    /// Frame time to hold by steering the triangle cap below max_triangles (client/frame_budget.h);
+    /// 0: off; negative: kDefaultRenderFrameMs when rendering, off otherwise.
+    double frame_ms = -1.0;
     bool render = false; ///< offscreen: frame times include drawing
     render::OffscreenBackend backend = render::OffscreenBackend::kOsmesa;
     std::filesystem::path png_dir; ///< before.png, after.png (+ every png_every frames)
@@ -39,6 +42,11 @@ struct BotConfig {
     std::filesystem::path barrier_dir;
     int peers = 1;
 };
+
+/// llvmpipe at 1280 x 720 on 2 cores spends about 20 ms a frame filling pixels and 0.3 ms per
+/// thousand lit triangles (BENCHMARKS.md, Rendering): 50 ms (20 frames a second) holds about
+/// 90,000 triangles there.
+inline constexpr double kDefaultRenderFrameMs = 50.0;
 
 /// Errors: kIo when it cannot join (the message says why); kUnsupported when rendering was asked
 /// for and no offscreen context could be made; the renderer's errors. A run that joined always

@@ -42,6 +42,8 @@ struct BotReport {
     Spread frame_ms;  ///< whole frame: network, tessellation, rendering
     Spread triangles;
     Spread visible_triangles;
+    Spread triangle_cap;       ///< the cap each frame ran under (the frame budget moves it)
+    Spread error_bound_pixels; ///< tau, or what the cap forced (FrameStats::error_bound_pixels)
     std::uint64_t upload_bytes = 0; ///< vertex + index bytes sent to the GL
     std::uint64_t vertex_bytes = 0;
     std::uint64_t index_bytes = 0;

@@ -104,6 +104,8 @@ class Tessellator {
     void terrainChanged(std::span<const CellRect> cells, bool all);
 
     void setTau(double tau_pixels);
+    /// A new triangle cap, followed over the next frames (the threshold moves; no rebuild).
+    void setMaxTriangles(std::int64_t max_triangles) { options_.max_triangles = max_triangles; }
     /// The threshold the mesh is refined to: tau_pixels, or higher while the cap binds.
     double threshold() const { return threshold_; }
     /// Splits the diamond centred at `p`, forcing every ancestor it needs, whatever the metric
@@ -158,9 +160,14 @@ class Tessellator {
     void resizeDiamondState();
 
     // bounds
-    void computeBounds(const Diamond& d, DiamondId id);
+    /// Both return whether the diamond's bounds changed.
+    bool computeBounds(const Diamond& d, DiamondId id);
+    /// computeBounds for a diamond strictly inside `block`'s cell, from the block directly.
+    bool computeBlockBounds(const Diamond& d, DiamondId id, std::int32_t block);
+    bool storeBounds(DiamondId id, float delta, float zlo, float zhi);
     /// Bounds of every diamond whose subtree reaches the lattice rectangle, finest level first;
-    /// with `collect`, their ids go to recomputed_ (candidates to refresh).
+    /// with `collect`, the ids of those whose bounds changed go to recomputed_ (candidates to
+    /// refresh).
     void recomputeBounds(
         std::int32_t lx0, std::int32_t ly0, std::int32_t lx1, std::int32_t ly1, bool collect);
     Box boxOf(const Diamond& d, DiamondId id) const;
@@ -192,6 +199,7 @@ class Tessellator {
     /// Splits best-first until `target` triangles; returns a bound on the error left.
     double refineBestFirst(const ViewMetric& m, std::int64_t target, FrameStats& stats);
     void followCap(const FrameStats& stats);
+    void spreadRekey();
     void refineTopDown(const ViewMetric& m, const Triangle& t, FrameStats& stats, bool& capped);
     void collectCandidates(const Triangle& t);
     void updateSplitMerge(const ViewMetric& m, FrameStats& stats);
@@ -199,6 +207,8 @@ class Tessellator {
     void setCandidate(DiamondId id, std::uint8_t kind);
     void clearCandidate(DiamondId id);
     void refreshCandidate(DiamondId id);
+    /// Replaces rectangles that overlap enough by their union (in place; order not kept).
+    static void mergeOverlapping(std::vector<CellRect>& rects);
     void finishFrame(const ViewMetric& m, FrameStats& stats);
 
     // indexed min-heap of candidates by the eye travel at which to re-examine them
@@ -256,6 +266,7 @@ class Tessellator {
     std::vector<DiamondId> evaluating_;
     std::vector<DiamondId> deferred_;
     std::vector<DiamondId> recomputed_;
+    std::vector<CellRect> merged_;
     std::vector<std::int32_t> removing_;
     std::vector<std::int32_t> removed_;
     std::vector<std::int32_t> added_;
@@ -269,6 +280,9 @@ class Tessellator {
     bool needs_rebuild_ = true;
     double threshold_ = 0.0; ///< tau, or higher while the cap binds (followCap)
     double unmet_ = 0.0;     ///< largest priority of a split the frame wanted and did not make
+    std::vector<DiamondId> rekey_; ///< candidates still keyed against rekey_from_
+    double rekey_from_ = 0.0;
+    std::size_t rekey_quota_ = 0; ///< of rekey_, per frame
     double travel_ = 0.0;
     glm::dvec3 last_eye_{0.0};
     glm::dvec3 last_forward_{0.0};

@@ -27,6 +27,9 @@ struct ViewerOptions {
     int height = 720;
     double tau_pixels = 2.0; ///< llvmpipe draws about 10 M triangles/s
     std::int64_t max_triangles = 300'000;
+    /// Frame time (tessellation + drawing) to hold by lowering the triangle cap; 0: off. 50 ms
+    /// is 20 frames a second from llvmpipe at 720p (about 90,000 lit triangles).
+    double frame_ms = 50.0;
     bool wireframe = false;
     double crater_radius = 8.0; ///< metres
     double crater_depth = 3.0;  ///< metres
