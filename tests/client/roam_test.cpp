@@ -9,6 +9,7 @@
 #include <terrain/battle.h>
 #include <terrain/client/replica.h>
 #include <terrain/io/dem_import.h>
+#include <terrain/roam/candidate_heap.h>
 #include <terrain/roam/screen_error.h>
 #include <terrain/roam/tessellator.h>
 #include <terrain/snapshot.h>
@@ -95,6 +96,44 @@ Terrain cratered(std::uint64_t seed, int craters) {
     s.count = craters;
     applyAll(t, randomCraters(t.spec(), s));
     return t;
+}
+
+TEST(RoamCandidateHeap, PopsInKeyOrderThroughPushesReKeysAndRemovals) {
+    roam::CandidateHeap heap;
+    heap.resizeIds(500);
+    std::map<std::uint32_t, double> reference; // id -> key
+    std::mt19937_64 rng(12);
+    std::uniform_int_distribution<std::uint32_t> any_id(0, 499);
+    std::uniform_real_distribution<double> any_key(0.0, 100.0);
+    for (int step = 0; step < 20000; ++step) {
+        const std::uint32_t id = any_id(rng);
+        if (step % 3 == 2 && heap.contains(id)) {
+            heap.remove(id);
+            reference.erase(id);
+        } else {
+            const double key = any_key(rng);
+            heap.push(id, key); // a held id is re-keyed
+            reference[id] = key;
+        }
+        ASSERT_EQ(heap.size(), reference.size());
+        if (!reference.empty()) {
+            double lowest = 1e9;
+            for (const auto& [held, key] : reference)
+                lowest = std::min(lowest, key);
+            ASSERT_EQ(heap.top().key, lowest);
+        }
+    }
+    for (const auto& [id, key] : reference)
+        EXPECT_TRUE(heap.contains(id));
+    double last = -1.0;
+    while (!heap.empty()) {
+        const auto top = heap.top();
+        EXPECT_GE(top.key, last);
+        EXPECT_EQ(reference.at(top.id), top.key);
+        last = top.key;
+        heap.remove(top.id);
+        EXPECT_FALSE(heap.contains(top.id));
+    }
 }
 
 TEST(RoamLattice, CellLevelTrianglesFollowTheBaseCellDiagonal) {

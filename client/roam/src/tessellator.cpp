@@ -43,9 +43,8 @@ void Tessellator::adoptSpec() {
     zlo_.clear();
     zhi_.clear();
     state_.clear();
-    heap_pos_.clear();
+    heap_.reset();
     block_local_.clear();
-    heap_.clear();
 }
 
 // ---- candidates ---------------------------------------------------------------------------
@@ -56,74 +55,16 @@ void Tessellator::setCandidate(DiamondId id, std::uint8_t kind) {
 
 void Tessellator::clearCandidate(DiamondId id) {
     state_[id] = static_cast<std::uint8_t>(state_[id] & kActive);
-    if (heap_pos_[id] >= 0)
-        heapRemove(id);
-}
-
-void Tessellator::heapSiftUp(std::size_t i) {
-    const HeapEntry e = heap_[i];
-    while (i > 0) {
-        const std::size_t parent = (i - 1) / 2;
-        if (heap_[parent].key <= e.key)
-            break;
-        heap_[i] = heap_[parent];
-        heap_pos_[heap_[i].id] = static_cast<std::int32_t>(i);
-        i = parent;
-    }
-    heap_[i] = e;
-    heap_pos_[e.id] = static_cast<std::int32_t>(i);
-}
-
-void Tessellator::heapSiftDown(std::size_t i) {
-    const HeapEntry e = heap_[i];
-    const std::size_t n = heap_.size();
-    while (true) {
-        std::size_t child = 2 * i + 1;
-        if (child >= n)
-            break;
-        if (child + 1 < n && heap_[child + 1].key < heap_[child].key)
-            ++child;
-        if (e.key <= heap_[child].key)
-            break;
-        heap_[i] = heap_[child];
-        heap_pos_[heap_[i].id] = static_cast<std::int32_t>(i);
-        i = child;
-    }
-    heap_[i] = e;
-    heap_pos_[e.id] = static_cast<std::int32_t>(i);
-}
-
-void Tessellator::heapPush(DiamondId id, double key) {
-    if (heap_pos_[id] >= 0) {
-        const auto i = static_cast<std::size_t>(heap_pos_[id]);
-        heap_[i].key = key;
-        heapSiftUp(i);
-        heapSiftDown(static_cast<std::size_t>(heap_pos_[id]));
-        return;
-    }
-    heap_.push_back({key, id});
-    heapSiftUp(heap_.size() - 1);
-}
-
-void Tessellator::heapRemove(DiamondId id) {
-    const auto i = static_cast<std::size_t>(heap_pos_[id]);
-    heap_pos_[id] = -1;
-    const HeapEntry last = heap_.back();
-    heap_.pop_back();
-    if (i == heap_.size())
-        return;
-    heap_[i] = last;
-    heap_pos_[last.id] = static_cast<std::int32_t>(i);
-    heapSiftUp(i);
-    heapSiftDown(static_cast<std::size_t>(heap_pos_[last.id]));
+    if (heap_.contains(id))
+        heap_.remove(id);
 }
 
 void Tessellator::evaluate(const ViewMetric& m, DiamondId id, FrameStats& stats) {
     const std::uint8_t st = state_[id];
     if ((st & (kSplitCandidate | kMergeCandidate)) == 0)
         return;
-    if (heap_pos_[id] >= 0)
-        heapRemove(id);
+    if (heap_.contains(id))
+        heap_.remove(id);
     const Diamond d = diamondAt(pointOf(id));
     ++stats.evaluations;
     const Box box = boxOf(d, id);
@@ -149,14 +90,14 @@ void Tessellator::evaluate(const ViewMetric& m, DiamondId id, FrameStats& stats)
         } else if (m.errorScale() * delta / options_.tau_pixels > m.camera().near_plane) {
             // (tested at tau, not at the threshold: the threshold may fall back to tau, and
             // then these must be in the heap)
-            heapPush(id, travel_ + std::max(0.0, distance - crossing));
+            heap_.push(id, travel_ + std::max(0.0, distance - crossing));
         }
         return;
     }
     if (p <= tau)
         merges_.push_back({p, id});
     else // due when the eye has moved away far enough, or far enough to take it out of view
-        heapPush(id, travel_ + std::min(std::max(0.0, crossing - distance), m.exitSlack(box)));
+        heap_.push(id, travel_ + std::min(std::max(0.0, crossing - distance), m.exitSlack(box)));
 }
 
 void Tessellator::collectCandidates(const Triangle& t) {
@@ -206,68 +147,9 @@ void Tessellator::refineTopDown(
     refineTopDown(m, halves[1], stats, capped);
 }
 
-double Tessellator::refineBestFirst(const ViewMetric& m, std::int64_t target, FrameStats& stats) {
-    best_first_.clear();
-    const auto by_priority = [](const auto& a, const auto& b) { return a.first < b.first; };
-    // the heap holds unsplit diamonds only: a split one (forced by a finer split) is walked
-    // through to its halves at once
-    auto push = [&](auto&& self, const Triangle& t) -> void {
-        if (t.level >= kFinestTriangleLevel)
-            return;
-        const LatticePoint p = splitPoint(t);
-        const DiamondId id = idOf(p);
-        if (id == kNoDiamond)
-            return;
-        if (active(id)) {
-            const auto halves = splitTriangle(t);
-            self(self, halves[0]);
-            self(self, halves[1]);
-            return;
-        }
-        ++stats.evaluations;
-        const double pr = priority(m, diamondAt(p), id);
-        if (pr <= options_.tau_pixels)
-            return;
-        best_first_.push_back({pr, t});
-        std::push_heap(best_first_.begin(), best_first_.end(), by_priority);
-    };
-    for (std::int32_t tile = 0; tile < tileCount(); ++tile) {
-        const Diamond root = tileRoot(tile);
-        for (const LatticePoint a : apexes(root))
-            push(push, triangleOf(root, a));
-    }
-    while (!best_first_.empty() && triangles_ < target) {
-        std::pop_heap(best_first_.begin(), best_first_.end(), by_priority);
-        const auto entry = best_first_.back();
-        best_first_.pop_back();
-        const LatticePoint p = splitPoint(entry.second);
-        if (active(idOf(p))) { // forced since it was pushed
-            push(push, entry.second);
-            continue;
-        }
-        if (!activate(diamondAt(p), idOf(p), false, stats)) {
-            if (refused_by_cap_) { // still wanted: it bounds the error
-                best_first_.push_back(entry);
-                std::push_heap(best_first_.begin(), best_first_.end(), by_priority);
-                break;
-            }
-            continue;
-        }
-        const auto halves = splitTriangle(entry.second);
-        push(push, halves[0]);
-        push(push, halves[1]);
-    }
-    // every unsplit diamond is in the heap or below an entry (priorities only fall from parent
-    // to child), so the largest entry bounds the mesh's error; a forced split since an entry
-    // was pushed only splits more
-    return best_first_.empty() ? options_.tau_pixels : best_first_.front().first;
-}
-
 void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
     bookkeeping_ = false;
     std::fill(state_.begin(), state_.end(), std::uint8_t{0});
-    for (const HeapEntry& e : heap_)
-        heap_pos_[e.id] = -1;
     heap_.clear();
     watched_.clear();
     rekey_.clear();
@@ -321,9 +203,9 @@ void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
     due_.clear();
     // only a binding cap leaves work here; it waits for the next frame
     for (const Action& a : splits_)
-        heapPush(a.id, travel_);
+        heap_.push(a.id, travel_);
     for (const Action& a : merges_)
-        heapPush(a.id, travel_);
+        heap_.push(a.id, travel_);
     splits_.clear();
     merges_.clear();
 }
@@ -352,10 +234,11 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
         // would merge everything that left the view in one burst
         sweep_phase_ += 0.6180339887498949;
         sweep_phase_ -= std::floor(sweep_phase_);
-        const HeapEntry e =
+        const CandidateHeap::Entry e =
             sweep == heap_.size() // a whole turn's worth: every entry once
-                ? heap_[k]
-                : heap_[static_cast<std::size_t>(sweep_phase_ * static_cast<double>(heap_.size()))];
+                ? heap_.at(k)
+                : heap_.at(
+                      static_cast<std::size_t>(sweep_phase_ * static_cast<double>(heap_.size())));
         if ((state_[e.id] & kMergeCandidate) == 0 || e.key <= travel_)
             continue;
         const Box box = boxOf(diamondAt(pointOf(e.id)), e.id);
@@ -363,11 +246,11 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
             due_.push_back(e.id); // taken out of the heap below, so the sweep skips no entry
     }
     for (const DiamondId id : due_)
-        if (heap_pos_[id] >= 0)
-            heapRemove(id);
-    while (!heap_.empty() && heap_.front().key <= travel_) {
-        const DiamondId id = heap_.front().id;
-        heapRemove(id);
+        if (heap_.contains(id))
+            heap_.remove(id);
+    while (!heap_.empty() && heap_.top().key <= travel_) {
+        const DiamondId id = heap_.top().id;
+        heap_.remove(id);
         due_.push_back(id);
     }
     watched_next_.swap(watched_);
@@ -429,7 +312,7 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
     // left for the next frame: due again as soon as it starts
     for (const DiamondId id : deferred_)
         if ((state_[id] & (kSplitCandidate | kMergeCandidate)) != 0)
-            heapPush(id, travel_);
+            heap_.push(id, travel_);
 }
 
 void Tessellator::finishFrame(const ViewMetric& m, FrameStats& stats) {
@@ -507,47 +390,6 @@ bool Tessellator::splitAt(LatticePoint p, FrameStats& stats) {
     return activate(d, id, false, stats);
 }
 
-void Tessellator::followCap(const FrameStats& stats) {
-    // The cap wins over tau: raise the threshold a step whenever it refused a split, lower it a
-    // step towards tau when the mesh has room to spare. Each change re-examines every candidate
-    // against the new threshold (next frame), so the mesh stays the one a top-down build at the
-    // threshold makes: the best for its triangle count, with no rebuild. A step of 10 % up and
-    // 5 % down moves the count by less than the gap between kCapLow and the cap.
-    double next = threshold_;
-    if (stats.refused_by_cap > 0 || triangles_ > options_.max_triangles) { // or a lower cap
-        // each refused split wanted at least two triangles more: a view that changed a lot
-        // takes a bigger step (as if the count went with the inverse of the threshold)
-        const double wanted = static_cast<double>(triangles_ + 2 * stats.refused_by_cap);
-        const double ratio = wanted / (kCapTarget * static_cast<double>(options_.max_triangles));
-        next = threshold_ * std::clamp(ratio, kCapStepUp, kCapStepMax);
-    } else if (
-        threshold_ > options_.tau_pixels &&
-        static_cast<double>(triangles_) < kCapLow * static_cast<double>(options_.max_triangles))
-        next = std::max(options_.tau_pixels, threshold_ / kCapStepDown);
-    if (next == threshold_ || !rekey_.empty()) // one move at a time
-        return;
-    rekey_from_ = threshold_;
-    threshold_ = next;
-    rekey_.clear();
-    for (const HeapEntry& e : heap_)
-        rekey_.push_back(e.id);
-    rekey_quota_ = std::max(rekey_.size() / kRekeyFrames + 1, kRekeyAtOnce);
-}
-
-void Tessellator::spreadRekey() {
-    // the candidates keyed against the old threshold, re-examined over kRekeyFrames frames
-    // rather than all in one (a few hundred thousand at a binding cap: tens of milliseconds);
-    // a small heap goes at once
-    for (std::size_t k = 0; k < rekey_quota_ && !rekey_.empty(); ++k) {
-        const DiamondId id = rekey_.back();
-        rekey_.pop_back();
-        if (heap_pos_[id] < 0)
-            continue; // re-examined since, so keyed against the new threshold
-        heapRemove(id);
-        due_.push_back(id);
-    }
-}
-
 void Tessellator::setTau(double tau_pixels) {
     options_.tau_pixels = tau_pixels;
     threshold_ = tau_pixels;
@@ -556,8 +398,7 @@ void Tessellator::setTau(double tau_pixels) {
 
 std::size_t Tessellator::memoryBytes() const {
     std::size_t bytes =
-        delta_.capacity() * sizeof(float) * 3 + state_.capacity() +
-        heap_pos_.capacity() * sizeof(std::int32_t) + heap_.capacity() * sizeof(HeapEntry) +
+        delta_.capacity() * sizeof(float) * 3 + state_.capacity() + heap_.memoryBytes() +
         static_cast<std::size_t>(blocks_.capacity()) * (kBlockVertices * sizeof(std::int64_t) + 16);
     for (const TileMesh& t : tiles_)
         bytes += t.memoryBytes();

@@ -140,7 +140,7 @@ void Tessellator::resizeDiamondState() {
     zlo_.resize(n, 0.0f);
     zhi_.resize(n, 0.0f);
     state_.resize(n, 0);
-    heap_pos_.resize(n, -1);
+    heap_.resizeIds(n);
     block_local_.resize(idx(blocks_.capacity()), -1);
 }
 

@@ -326,7 +326,6 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
         blocks_.reset(*terrain_);
         resizeDiamondState();
         std::fill(state_.begin(), state_.end(), std::uint8_t{0});
-        std::fill(heap_pos_.begin(), heap_pos_.end(), -1);
         heap_.clear();
         watched_.clear();
         rekey_.clear();
@@ -376,7 +375,6 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
                 const DiamondId id =
                     grid_count_ + static_cast<DiamondId>(block) * kDiamondsPerBlock + local;
                 state_[id] = 0;
-                heap_pos_[id] = -1;
                 delta_[id] = -1.0f; // no bound yet: recomputeBounds must see it change
             }
         // a new block takes a hole or goes at the end of its tile's vertex array, so no index

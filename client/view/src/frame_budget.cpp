@@ -19,17 +19,25 @@ constexpr double kMaxGrow = 1.25;
 FrameBudget::FrameBudget(const FrameBudgetOptions& options)
     : options_(options), cap_(options.max_triangles) {
     options_.min_triangles = std::min(options_.min_triangles, options_.max_triangles);
+    options_.settle_frames = std::max(options_.settle_frames, 1);
+    window_.reserve(static_cast<std::size_t>(options_.settle_frames));
+    sorted_.reserve(static_cast<std::size_t>(options_.settle_frames));
 }
 
 std::int64_t FrameBudget::observe(double frame_ms, std::int64_t triangles) {
     if (options_.target_ms <= 0.0)
         return cap_;
-    average_ms_ =
-        frames_ == 0 ? frame_ms : average_ms_ + options_.smoothing * (frame_ms - average_ms_);
-    ++frames_;
-    if (++since_move_ < options_.settle_frames || average_ms_ <= 0.0)
+    window_.push_back(frame_ms);
+    if (static_cast<int>(window_.size()) < options_.settle_frames)
         return cap_;
-    const double ratio = options_.target_ms / average_ms_;
+    sorted_.assign(window_.begin(), window_.end());
+    window_.clear();
+    const auto middle = sorted_.begin() + static_cast<std::ptrdiff_t>(sorted_.size() / 2);
+    std::nth_element(sorted_.begin(), middle, sorted_.end());
+    measured_ms_ = *middle;
+    if (measured_ms_ <= 0.0)
+        return cap_;
+    const double ratio = options_.target_ms / measured_ms_;
     double next = static_cast<double>(cap_);
     if (ratio < 1.0) {
         // over the target: what the frame drew, scaled to the target
@@ -38,12 +46,8 @@ std::int64_t FrameBudget::observe(double frame_ms, std::int64_t triangles) {
         // well under it, and the cap was what held the mesh back
         next = static_cast<double>(cap_) * std::min(ratio * kGrowBelow, kMaxGrow);
     }
-    const auto capped =
+    cap_ =
         std::clamp(static_cast<std::int64_t>(next), options_.min_triangles, options_.max_triangles);
-    if (capped != cap_) {
-        cap_ = capped;
-        since_move_ = 0;
-    }
     return cap_;
 }
 

@@ -33,6 +33,7 @@
 // Pure: no GL, no clocks, no I/O. Single-threaded.
 
 #include <terrain/roam/camera.h>
+#include <terrain/roam/candidate_heap.h>
 #include <terrain/roam/detail_blocks.h>
 #include <terrain/roam/lattice.h>
 #include <terrain/roam/tile_mesh.h>
@@ -211,12 +212,6 @@ class Tessellator {
     static void mergeOverlapping(std::vector<CellRect>& rects);
     void finishFrame(const ViewMetric& m, FrameStats& stats);
 
-    // indexed min-heap of candidates by the eye travel at which to re-examine them
-    void heapPush(DiamondId id, double key);
-    void heapRemove(DiamondId id);
-    void heapSiftUp(std::size_t i);
-    void heapSiftDown(std::size_t i);
-
     const Terrain* terrain_;
     TessellatorOptions options_;
     WorldSpec spec_;
@@ -236,7 +231,6 @@ class Tessellator {
     std::vector<float> zlo_;   ///< metres, rounded down
     std::vector<float> zhi_;   ///< metres, rounded up
     std::vector<std::uint8_t> state_;
-    std::vector<std::int32_t> heap_pos_;
 
     // per tile
     std::vector<TileMesh> tiles_;
@@ -249,11 +243,7 @@ class Tessellator {
     std::vector<std::int32_t> block_local_;             ///< block slot -> index in its tile
 
     // split/merge state
-    struct HeapEntry {
-        double key = 0.0;
-        DiamondId id = 0;
-    };
-    std::vector<HeapEntry> heap_;
+    CandidateHeap heap_;             ///< candidates by the eye travel at which to re-examine them
     std::vector<DiamondId> watched_; ///< split candidates that want a split but are culled
     std::vector<DiamondId> watched_next_;
     struct Action {

@@ -4,12 +4,14 @@
 //
 // The cost of a frame grows with its triangles (drawing, on llvmpipe above all; tessellation
 // too), so the cap is the one knob: a frame over the target shrinks it in proportion, frames
-// well under it grow it again, up to the configured cap. The measure is a moving average, and
-// the cap moves at most every `settle_frames` frames, because the tessellator follows a new cap
-// over a few frames (Tessellator::followCap) and its cost should show before the next move.
+// well under it grow it again, up to the configured cap. The measure is the median of the frames
+// since the last move (a one-off frame, a crater's upload or the first frame's, moves nothing),
+// and the cap moves at most every `settle_frames` frames, because the tessellator follows a new
+// cap over a few frames (Tessellator::followCap) and its cost should show before the next move.
 // Pure: the caller measures the time and passes it in.
 
 #include <cstdint>
+#include <vector>
 
 namespace terrain::client {
 
@@ -18,8 +20,7 @@ struct FrameBudgetOptions {
     double target_ms = 0.0;
     std::int64_t max_triangles = 400'000; ///< the ceiling (the configured cap)
     std::int64_t min_triangles = 20'000;  ///< the floor: below it a view looks broken
-    int settle_frames = 10;
-    double smoothing = 0.25; ///< weight of the newest frame in the moving average
+    int settle_frames = 10;               ///< at least 1; the median is over this many frames
 };
 
 class FrameBudget {
@@ -30,15 +31,16 @@ class FrameBudget {
     std::int64_t observe(double frame_ms, std::int64_t triangles);
 
     std::int64_t cap() const { return cap_; }
-    double averageMs() const { return average_ms_; }
+    /// The median frame time the last decision looked at (0 before the first).
+    double measuredMs() const { return measured_ms_; }
     const FrameBudgetOptions& options() const { return options_; }
 
   private:
     FrameBudgetOptions options_;
     std::int64_t cap_ = 0;
-    double average_ms_ = 0.0;
-    int frames_ = 0;
-    int since_move_ = 0;
+    double measured_ms_ = 0.0;
+    std::vector<double> window_; ///< frame times since the last decision
+    std::vector<double> sorted_;
 };
 
 } // namespace terrain::client

@@ -1,0 +1,80 @@
+#include <terrain/roam/candidate_heap.h>
+
+#include <algorithm>
+
+namespace terrain::roam {
+
+void CandidateHeap::resizeIds(std::size_t ids) {
+    position_.resize(ids, -1);
+}
+
+void CandidateHeap::siftUp(std::size_t i) {
+    const Entry e = heap_[i];
+    while (i > 0) {
+        const std::size_t parent = (i - 1) / 2;
+        if (heap_[parent].key <= e.key)
+            break;
+        heap_[i] = heap_[parent];
+        position_[heap_[i].id] = static_cast<std::int32_t>(i);
+        i = parent;
+    }
+    heap_[i] = e;
+    position_[e.id] = static_cast<std::int32_t>(i);
+}
+
+void CandidateHeap::siftDown(std::size_t i) {
+    const Entry e = heap_[i];
+    const std::size_t n = heap_.size();
+    while (true) {
+        std::size_t child = 2 * i + 1;
+        if (child >= n)
+            break;
+        if (child + 1 < n && heap_[child + 1].key < heap_[child].key)
+            ++child;
+        if (e.key <= heap_[child].key)
+            break;
+        heap_[i] = heap_[child];
+        position_[heap_[i].id] = static_cast<std::int32_t>(i);
+        i = child;
+    }
+    heap_[i] = e;
+    position_[e.id] = static_cast<std::int32_t>(i);
+}
+
+void CandidateHeap::push(std::uint32_t id, double key) {
+    if (position_[id] >= 0) {
+        const auto i = static_cast<std::size_t>(position_[id]);
+        heap_[i].key = key;
+        siftUp(i);
+        siftDown(static_cast<std::size_t>(position_[id]));
+        return;
+    }
+    heap_.push_back({key, id});
+    siftUp(heap_.size() - 1);
+}
+
+void CandidateHeap::remove(std::uint32_t id) {
+    const auto i = static_cast<std::size_t>(position_[id]);
+    position_[id] = -1;
+    const Entry last = heap_.back();
+    heap_.pop_back();
+    if (i == heap_.size())
+        return;
+    heap_[i] = last;
+    position_[last.id] = static_cast<std::int32_t>(i);
+    siftUp(i);
+    siftDown(static_cast<std::size_t>(position_[last.id]));
+}
+
+void CandidateHeap::clear() {
+    for (const Entry& e : heap_)
+        position_[e.id] = -1;
+    heap_.clear();
+}
+
+void CandidateHeap::reset() {
+    heap_.clear();
+    position_.clear();
+}
+
+} // namespace terrain::roam
