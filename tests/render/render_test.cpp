@@ -325,6 +325,38 @@ TEST(OsmesaRender, UploadsOnlyWhatChanged) {
     EXPECT_EQ(countDiffering(incremental, rebuilt, 0).differing, 0);
 }
 
+TEST(OsmesaRender, TilesOutOfViewGiveTheirBuffersBackAndReloadTheSamePixels) {
+    Terrain t = testing::makeHills(7, 257, 257, 1.0);
+    Scene scene(t, 1.0);
+    ASSERT_TRUE(scene.ok());
+    scene.renderer->setEvictAfterFrames(3);
+    // looking down on one corner of the map: the tiles far from it stay out of view
+    const roam::Camera towards = lookAt({40.0, 40.0, 70.0}, {60.0, 60.0, 0.0});
+    const roam::Camera away = lookAt({40.0, 40.0, 70.0}, {-100.0, -100.0, 70.0});
+    const io::RgbImage first = scene.frame(towards);
+    const std::uint32_t resident = scene.renderer->residentTiles();
+    const std::uint64_t gpu = scene.renderer->gpuBytes();
+    EXPECT_GT(resident, 0u);
+    EXPECT_LT(resident, static_cast<std::uint32_t>(scene.tess->tileCount()))
+        << "a tile never in view is never loaded";
+    for (int f = 0; f < 6; ++f)
+        scene.frame(away);
+    EXPECT_GT(scene.renderer->totals().evicted_tiles, 0u);
+    EXPECT_LT(scene.renderer->gpuBytes(), gpu);
+    for (int f = 0; f < 3; ++f) // back: the tiles load again (and the mesh settles)
+        scene.frame(towards);
+    EXPECT_EQ(scene.renderer->residentTiles(), resident);
+    const io::RgbImage back = scene.frame(towards);
+    EXPECT_EQ(countDiffering(first, back, 0).differing, 0);
+    // and what a renderer that never evicted anything draws for the same mesh
+    auto fresh = render::TerrainRenderer::create(*scene.context);
+    ASSERT_TRUE(fresh.ok());
+    (*fresh)->sync(*scene.tess, t);
+    (*fresh)->draw(*scene.tess, towards, render::RenderOptions{});
+    EXPECT_EQ(countDiffering(back, scene.context->readPixels(), 0).differing, 0);
+    EXPECT_EQ(scene.renderer->shadowBytes(), (*fresh)->shadowBytes());
+}
+
 // A rebuild rewrites every tile's list into the buffer it has: GPU memory stays bounded however
 // often the tessellation is rebuilt (a tau slider dragged, a window resized).
 TEST(OsmesaRender, RebuildsReuseTheIndexBuffers) {

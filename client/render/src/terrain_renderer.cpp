@@ -94,9 +94,16 @@ UploadStats TerrainRenderer::sync(roam::Tessellator& tess, const Terrain& terrai
         releaseTiles();
         spec_ = terrain.spec();
         have_spec_ = true;
+        // colours follow the world's first heights (its samples, whichever tiles are loaded):
+        // a crater must not recolour the whole map
         height_lo_ = std::numeric_limits<float>::max();
         height_hi_ = std::numeric_limits<float>::lowest();
-        height_range_fixed_ = false;
+        for (std::int32_t y = 0; y < spec_.height; ++y)
+            for (std::int32_t x = 0; x < spec_.width; ++x) {
+                const auto z = static_cast<float>(terrain.sample(x, y) * spec_.metresPerUnit());
+                height_lo_ = std::min(height_lo_, z);
+                height_hi_ = std::max(height_hi_, z);
+            }
         tiles_.resize(static_cast<std::size_t>(tess.tileCount()));
         for (TileBuffers& tb : tiles_) {
             gl_.GenVertexArrays(1, &tb.vao);
@@ -108,8 +115,20 @@ UploadStats TerrainRenderer::sync(roam::Tessellator& tess, const Terrain& terrai
         }
         gl_.BindVertexArray(0);
     }
+    ++frame_;
     for (std::int32_t t = 0; t < tess.tileCount(); ++t) {
         TileBuffers& tb = tiles_[static_cast<std::size_t>(t)];
+        // residency: buffers (and their CPU copy) for tiles in view or seen lately; a tile out
+        // of view for longer gives them back and loads in full when it is seen again
+        if (tess.tileVisible(t)) {
+            tb.last_visible = frame_;
+            tb.seen = true;
+        }
+        if (!tb.seen || frame_ - tb.last_visible > evict_after_frames_) {
+            if (tb.has_vertices || tb.has_indices)
+                evict(tb, stats);
+            continue;
+        }
         if (!tb.has_vertices || tb.vertex_version != tess.tileVertexVersion(t) ||
             surfaceChangedIn(t))
             uploadVertices(tess, terrain, t, tb, stats);
@@ -122,14 +141,44 @@ UploadStats TerrainRenderer::sync(roam::Tessellator& tess, const Terrain& terrai
     gl_.BindVertexArray(0);
     changed_.clear();
     all_changed_ = false;
-    // colours follow the world's first heights: a crater must not recolour the whole map
-    height_range_fixed_ = true;
     totals_.vertex_bytes += stats.vertex_bytes;
     totals_.index_bytes += stats.index_bytes;
     totals_.vertex_tiles += stats.vertex_tiles;
     totals_.index_tiles += stats.index_tiles;
     totals_.index_uploads += stats.index_uploads;
+    totals_.evicted_tiles += stats.evicted_tiles;
     return stats;
+}
+
+void TerrainRenderer::evict(TileBuffers& tb, UploadStats& stats) {
+    // the names and the VAO stay (a few bytes); the storage goes
+    gl_.BindVertexArray(0);
+    gl_.BindBuffer(GL_ARRAY_BUFFER, tb.vertex_buffer);
+    gl_.BufferData(GL_ARRAY_BUFFER, 0, nullptr, GL_STATIC_DRAW);
+    gl_.BindVertexArray(tb.vao); // the element buffer binding belongs to the VAO
+    gl_.BufferData(GL_ELEMENT_ARRAY_BUFFER, 0, nullptr, GL_DYNAMIC_DRAW);
+    gl_.BindVertexArray(0);
+    std::vector<GpuVertex>().swap(tb.shadow);
+    tb.has_vertices = false;
+    tb.has_indices = false;
+    tb.vertex_capacity = 0;
+    tb.index_capacity_slots = 0;
+    tb.triangles = 0;
+    ++stats.evicted_tiles;
+}
+
+std::uint32_t TerrainRenderer::residentTiles() const {
+    std::uint32_t n = 0;
+    for (const TileBuffers& tb : tiles_)
+        n += tb.has_vertices ? 1 : 0;
+    return n;
+}
+
+std::uint64_t TerrainRenderer::shadowBytes() const {
+    std::uint64_t bytes = 0;
+    for (const TileBuffers& tb : tiles_)
+        bytes += std::uint64_t{tb.shadow.capacity()} * sizeof(GpuVertex);
+    return bytes;
 }
 
 void TerrainRenderer::surfaceChanged(std::span<const CellRect> cells, bool all) {
@@ -282,11 +331,6 @@ void TerrainRenderer::uploadVertices(
         const double inv = 1.0 / std::sqrt(dzdx * dzdx + dzdy * dzdy + 1.0);
         scratch_vertices_[i].normal = packNormal(-dzdx * inv, -dzdy * inv, inv);
     }
-    if (!height_range_fixed_)
-        for (const GpuVertex& v : scratch_vertices_) {
-            height_lo_ = std::min(height_lo_, v.z);
-            height_hi_ = std::max(height_hi_, v.z);
-        }
 
     // send what differs from the buffer's contents, in runs that bridge short equal gaps
     gl_.BindVertexArray(0);

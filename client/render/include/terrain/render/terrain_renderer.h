@@ -4,6 +4,7 @@
 // base grid + detail blocks, positions and normals), rebuilt only when the tile's vertex
 // version changes, and an index buffer into which only the dirty pages of the tile's index list
 // are copied (glBufferSubData per run of pages; the whole list after a rewrite or growth).
+// Only tiles in view or seen lately hold buffers (setEvictAfterFrames).
 // Every byte sent to the GL is counted. The renderer never decides level of detail: it draws
 // what roam::Tessellator chose, and clips triangles that reach into the map's padding.
 //
@@ -51,6 +52,7 @@ struct UploadStats {
     std::uint32_t vertex_tiles = 0;  ///< tiles whose vertex buffer was rebuilt
     std::uint32_t index_tiles = 0;   ///< tiles whose index buffer was written
     std::uint32_t index_uploads = 0; ///< glBufferData/glBufferSubData calls for indices
+    std::uint32_t evicted_tiles = 0; ///< tiles whose buffers were given back (out of view)
     std::uint64_t bytes() const { return vertex_bytes + index_bytes; }
 };
 
@@ -87,6 +89,17 @@ class TerrainRenderer {
     const UploadStats& totals() const { return totals_; }
     /// Bytes held in GL buffers now.
     std::uint64_t gpuBytes() const;
+    /// Bytes of the CPU copies of vertex buffers (what uploads diff against).
+    std::uint64_t shadowBytes() const;
+    /// Tiles whose buffers are loaded: those in view, and those seen within the last
+    /// evictAfterFrames() syncs.
+    std::uint32_t residentTiles() const;
+    /// A tile out of view for more than this many syncs gives its buffers and CPU copy back
+    /// (0: as soon as it leaves the view); it loads in full when seen again.
+    void setEvictAfterFrames(std::uint32_t frames) { evict_after_frames_ = frames; }
+    std::uint32_t evictAfterFrames() const { return evict_after_frames_; }
+    /// 300 syncs: 5 s at 60 frames a second, so a look over the shoulder costs no reload.
+    static constexpr std::uint32_t kDefaultEvictAfterFrames = 300;
 
   private:
     struct TileBuffers {
@@ -101,6 +114,8 @@ class TerrainRenderer {
         std::uint32_t index_capacity_slots = 0;
         bool has_indices = false;
         std::uint32_t triangles = 0;
+        std::uint64_t last_visible = 0; ///< the sync (frame_) it was last in view
+        bool seen = false;
     };
 
     struct Region {
@@ -111,6 +126,7 @@ class TerrainRenderer {
     explicit TerrainRenderer(const GlContext& context);
     bool surfaceChangedIn(std::int32_t tile) const;
     void releaseTiles();
+    void evict(TileBuffers& tb, UploadStats& stats);
     void attachVertexBuffer(const TileBuffers& tb);
     void growVertexBuffer(TileBuffers& tb, std::uint32_t count);
     void uploadVertices(
@@ -139,7 +155,8 @@ class TerrainRenderer {
     bool have_spec_ = false;
     float height_lo_ = 0.0f;
     float height_hi_ = 0.0f;
-    bool height_range_fixed_ = false;
+    std::uint64_t frame_ = 0; ///< syncs since creation
+    std::uint32_t evict_after_frames_ = kDefaultEvictAfterFrames;
     std::vector<Region> changed_; ///< surfaceChanged() since the last sync, in lattice units
     bool all_changed_ = false;
     std::vector<roam::TileVertex> scratch_keys_;
