@@ -166,6 +166,8 @@ class Tessellator {
     /// computeBounds for a diamond strictly inside `block`'s cell, from the block directly.
     bool computeBlockBounds(const Diamond& d, DiamondId id, std::int32_t block);
     bool storeBounds(DiamondId id, float delta, float zlo, float zhi);
+    bool finishBounds(
+        DiamondId id, std::int64_t own_lo, std::int64_t own_hi, double delta, double lo, double hi);
     /// Bounds of every diamond whose subtree reaches the lattice rectangle, finest level first;
     /// with `collect`, the ids of those whose bounds changed go to recomputed_ (candidates to
     /// refresh).
