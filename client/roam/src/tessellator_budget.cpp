@@ -74,9 +74,10 @@ double Tessellator::refineBestFirst(const ViewMetric& m, std::int64_t target, Fr
 void Tessellator::followCap(const FrameStats& stats) {
     // The cap wins over tau: raise the threshold a step whenever it refused a split, lower it a
     // step towards tau when the mesh has room to spare. Each change re-examines every candidate
-    // against the new threshold (next frame), so the mesh stays the one a top-down build at the
-    // threshold makes: the best for its triangle count, with no rebuild. A step of 10 % up and
-    // 5 % down moves the count by less than the gap between kCapLow and the cap.
+    // against the new threshold (spread over the next kRekeyFrames frames by spreadRekey), so
+    // the mesh settles on the one a top-down build at the threshold makes: the best for its
+    // triangle count, with no rebuild. A step of 10 % up and 5 % down moves the count by less
+    // than the gap between kCapLow and the cap.
     double next = threshold_;
     if (stats.refused_by_cap > 0 || triangles_ > options_.max_triangles) { // or a lower cap
         // each refused split wanted at least two triangles more: a view that changed a lot
