@@ -89,6 +89,7 @@ int main(int argc, char** argv) {
     int burst_every = 100;
     double tau = 1.0;
     std::int64_t max_triangles = 400'000;
+    std::int32_t max_blocks = roam::TessellatorOptions{}.max_detail_blocks;
     int width = 1280;
     int height = 720;
     std::string flight = "hover";
@@ -103,6 +104,8 @@ int main(int argc, char** argv) {
         ->check(CLI::PositiveNumber);
     app.add_option("--tau", tau, "screen-error threshold, pixels")->check(CLI::PositiveNumber);
     app.add_option("--max-triangles", max_triangles, "the tessellator's triangle cap")
+        ->check(CLI::PositiveNumber);
+    app.add_option("--max-blocks", max_blocks, "detail blocks resident at once (the pool)")
         ->check(CLI::PositiveNumber);
     app.add_option("--width", width, "viewport width")->check(CLI::Range(64, 8192));
     app.add_option("--height", height, "viewport height")->check(CLI::Range(64, 8192));
@@ -139,6 +142,7 @@ int main(int argc, char** argv) {
     roam::TessellatorOptions to;
     to.tau_pixels = tau;
     to.max_triangles = max_triangles;
+    to.max_detail_blocks = max_blocks;
     const auto build_start = bench::Clock::now();
     roam::Tessellator tess(replica.terrain(), to);
     tess.update(flightCamera(flight, 0, replica.terrain(), o, width, height));
@@ -152,6 +156,10 @@ int main(int argc, char** argv) {
     int threshold_moves = 0;
     int rebuilds = 0;
     int capped_frames = 0;
+    std::int64_t pool_refusals = 0;
+    std::int64_t materialised = 0;
+    std::int64_t evicted = 0;
+    std::vector<double> in_use; // blocks that cannot go, sampled
     bool hashes_agree = true;
     std::size_t next = 0;
     std::uint64_t seq = 0;
@@ -180,6 +188,11 @@ int main(int argc, char** argv) {
         error_bound.push_back(fs.error_bound_pixels);
         rebuilds += fs.rebuilt ? 1 : 0;
         capped_frames += fs.refused_by_cap > 0 ? 1 : 0;
+        pool_refusals += fs.refused_by_pool;
+        materialised += fs.blocks_materialised;
+        evicted += fs.blocks_evicted;
+        if (f % 25 == 0)
+            in_use.push_back(static_cast<double>(tess.pinnedBlockCount()));
         if (arriving == 1) {
             single_total.push_back(total);
             single_apply.push_back(apply_ms);
@@ -224,6 +237,15 @@ int main(int argc, char** argv) {
         {"threshold_moves", threshold_moves},
         {"rebuild_frames", rebuilds},
         {"capped_frames", capped_frames},
+        {"detail_cells", tess.detailCellCount()},
+        {"detail_blocks",
+         Json{
+             {"pool", max_blocks},
+             {"resident", tess.blockCount()},
+             {"in_use", summaryJson(bench::summarize(in_use))},
+             {"materialised", materialised},
+             {"evicted", evicted},
+             {"refusals", pool_refusals}}},
         {"tessellator_mib", tess_mib},
         {"rss_mib", rss_mib},
         {"goals", Json{
@@ -251,6 +273,12 @@ int main(int argc, char** argv) {
         bench::summarize(error_bound).p50, bench::summarize(error_bound).max, threshold_moves,
         bench::summarize(triangles).p50, bench::summarize(triangles).max, tess_mib, rss_mib,
         first_frame_ms, hashes_agree ? "agree" : "DIFFER");
+    std::printf(
+        "  detail blocks: %d cells, pool %d, resident %d, in use p50 %.0f max %.0f; "
+        "materialised %lld, evicted %lld, refusals %lld\n",
+        tess.detailCellCount(), max_blocks, tess.blockCount(), bench::summarize(in_use).p50,
+        bench::summarize(in_use).max, static_cast<long long>(materialised),
+        static_cast<long long>(evicted), static_cast<long long>(pool_refusals));
     if (!out.empty()) {
         std::ofstream file(out);
         if (!file) {

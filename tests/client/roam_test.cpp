@@ -100,13 +100,14 @@ Terrain cratered(std::uint64_t seed, int craters) {
 
 TEST(RoamCandidateHeap, PopsInKeyOrderThroughPushesReKeysAndRemovals) {
     roam::CandidateHeap heap;
-    heap.resizeIds(500);
+    heap.resizeIds(250, 250);                  // both id ranges: eager and pooled
     std::map<std::uint32_t, double> reference; // id -> key
     std::mt19937_64 rng(12);
     std::uniform_int_distribution<std::uint32_t> any_id(0, 499);
     std::uniform_real_distribution<double> any_key(0.0, 100.0);
     for (int step = 0; step < 20000; ++step) {
-        const std::uint32_t id = any_id(rng);
+        const std::uint32_t n = any_id(rng);
+        const std::uint32_t id = n < 250 ? n : roam::CandidateHeap::kPooledIds + (n - 250);
         if (step % 3 == 2 && heap.contains(id)) {
             heap.remove(id);
             reference.erase(id);
@@ -240,6 +241,7 @@ TEST(RoamMesh, ConformsAndMeetsTauOnHillsWithCraters) {
     ASSERT_GT(t.patchCount(), 0u);
     TessellatorOptions o;
     o.tau_pixels = 1.0;
+    o.max_detail_blocks = 1 << 20; // views of the whole map: tau, not the pool, must bind
     Tessellator tess(t, o);
     std::mt19937_64 rng(3);
     for (int i = 0; i < 6; ++i) {
@@ -252,6 +254,96 @@ TEST(RoamMesh, ConformsAndMeetsTauOnHillsWithCraters) {
         EXPECT_LE(err.max_pixels, o.tau_pixels) << "camera " << i;
         EXPECT_EQ(tess.missingBlockRefusals(), 0);
     }
+}
+
+/// Every diamond of every detail cell of `t` (their centres included), in cell order.
+template <class Visit> void forEachDetailDiamond(const Terrain& t, Visit&& visit) {
+    for (std::int32_t cy = 0; cy < t.spec().paddedHeight(); ++cy)
+        for (std::int32_t cx = 0; cx < t.spec().paddedWidth(); ++cx)
+            for (std::int32_t l = 0; l < 16; ++l)
+                for (std::int32_t k = 0; k < 16; ++k)
+                    if ((k | l) != 0)
+                        visit(roam::LatticePoint{cx * 16 + k, cy * 16 + l});
+}
+
+TEST(RoamMesh, LazyBoundsEqualBoundsBuiltForEveryCellAtOnce) {
+    // a block's bounds are made when a split first needs it, from the 3 x 3 cells around it
+    // (resident or made for the pass only); they must be the ones a pass over every block at
+    // once makes, whatever order the blocks came in
+    const Terrain t = cratered(7, 40);
+    TessellatorOptions o;
+    Tessellator lazy(t, o);
+    std::mt19937_64 rng(3);
+    for (int i = 0; i < 4; ++i)
+        lazy.update(randomCamera(t, rng));
+    ASSERT_GT(lazy.blockCount(), 0);
+    ASSERT_LT(lazy.blockCount(), lazy.detailCellCount());
+    Tessellator one_by_one(t, o);
+    one_by_one.materialiseAll();
+    EXPECT_EQ(one_by_one.blockCount(), one_by_one.detailCellCount());
+    Tessellator at_once(t, o);
+    at_once.materialiseAll();
+    const CellRect whole{0, 0, t.spec().paddedWidth() - 1, t.spec().paddedHeight() - 1};
+    at_once.terrainChanged(std::span<const CellRect>(&whole, 1), false);
+    std::int64_t compared = 0;
+    std::int64_t differ = 0;
+    forEachDetailDiamond(t, [&](roam::LatticePoint p) {
+        const double a = at_once.deltaAt(p);
+        if (a < 0.0)
+            return;
+        if (one_by_one.deltaAt(p) != a && differ++ < 5)
+            ADD_FAILURE() << "one by one: " << p.x << "," << p.y << " " << one_by_one.deltaAt(p)
+                          << " vs " << a;
+        const double l = lazy.deltaAt(p);
+        if (l >= 0.0) {
+            ++compared;
+            if (l != a && differ++ < 5)
+                ADD_FAILURE() << "lazy: " << p.x << "," << p.y << " " << l << " vs " << a;
+        }
+    });
+    EXPECT_EQ(differ, 0);
+    EXPECT_GT(compared, 1000);
+}
+
+TEST(RoamMesh, ABoundedBlockPoolHoldsItsLimitAndReportsTheErrorItCosts) {
+    // views that want more detail blocks than the pool holds: the pool binds like the triangle
+    // cap (splits refused, the threshold rises), blocks no diamond needs make room as the view
+    // moves, and the reported bound still covers the measured error
+    const Terrain t = cratered(7, 40);
+    TessellatorOptions o;
+    o.tau_pixels = 1.0;
+    o.max_detail_blocks = 300;
+    Tessellator tess(t, o);
+    std::mt19937_64 rng(3);
+    std::int64_t refusals = 0;
+    std::int64_t evicted = 0;
+    for (int i = 0; i < 6; ++i) {
+        const Camera cam = randomCamera(t, rng);
+        for (int f = 0; f < 4; ++f) { // a rebuild, then split/merge at the same eye
+            const auto stats = tess.update(cam);
+            refusals += stats.refused_by_pool;
+            evicted += stats.blocks_evicted;
+            EXPECT_LE(tess.blockCount(), o.max_detail_blocks);
+            expectConforming(tess, t.spec());
+            expectIndexListsMatchMesh(tess);
+            if (!stats.budget_exhausted) {
+                const auto err = roam::measureScreenError(tess, t, cam);
+                EXPECT_LE(err.max_pixels, stats.error_bound_pixels + 1e-9)
+                    << "camera " << i << " frame " << f;
+            }
+        }
+        EXPECT_EQ(tess.missingBlockRefusals(), 0);
+    }
+    EXPECT_GT(refusals, 0) << "the pool never bound";
+    EXPECT_GT(evicted, 0) << "no block made room for another";
+    // the same views with room for every block meet tau
+    TessellatorOptions roomy = o;
+    roomy.max_detail_blocks = 1 << 20;
+    Tessellator free_tess(t, roomy);
+    std::mt19937_64 again(3);
+    const Camera cam = randomCamera(t, again);
+    EXPECT_LE(free_tess.update(cam).error_bound_pixels, o.tau_pixels);
+    EXPECT_GT(free_tess.blockCount(), o.max_detail_blocks);
 }
 
 using LeafSet = std::set<std::array<std::int32_t, 6>>;
@@ -531,37 +623,69 @@ TEST(RoamMesh, ACraterAmongCratersRewritesOnlyItsOwnTriangles) {
     EXPECT_EQ(leaves(tess), leaves(fresh));
 }
 
-// Every vertex's height by lattice position (block slots may sit elsewhere in the arrays; a
-// hole's vertices stand in for the tile's first, with its height).
-std::map<std::pair<std::int32_t, std::int32_t>, std::int64_t> vertexHeights(const Tessellator& s) {
-    std::map<std::pair<std::int32_t, std::int32_t>, std::int64_t> out;
+// Every vertex's height by lattice position and the origin of the block it belongs to (the
+// grid's own: -1), as block slots may sit elsewhere in the arrays; a hole's vertices stand in
+// for the tile's first, with its height.
+std::map<std::array<std::int32_t, 4>, std::int64_t> vertexHeights(const Tessellator& s) {
+    std::map<std::array<std::int32_t, 4>, std::int64_t> out;
     for (std::int32_t tile = 0; tile < s.tileCount(); ++tile)
         for (std::int32_t i = 0; i < s.tileVertexCount(tile); ++i) {
             const roam::TileVertex v = s.tileVertex(tile, static_cast<std::uint32_t>(i));
-            out[{v.position.x, v.position.y}] = v.height;
+            std::int32_t ox = -1;
+            std::int32_t oy = -1;
+            if (i >= roam::kTileBaseVertices && v.position.x % 16 + v.position.y % 16 != 0) {
+                const std::int32_t local = (i - roam::kTileBaseVertices) % roam::kBlockVertices;
+                ox = v.position.x - local % roam::kBlockSide;
+                oy = v.position.y - local / roam::kBlockSide;
+            }
+            out[{v.position.x, v.position.y, ox, oy}] = v.height;
         }
     return out;
 }
 
-// Blocks, bounds, vertex heights and mesh equal those of a tessellator built from scratch on
-// the same terrain: what incremental updates must keep.
+// Every resident vertex of `tess` has the height a tessellator built from scratch on `t`, with
+// every detail block materialised, gives it.
+bool verticesMatchAFreshBuild(const Tessellator& tess, const Terrain& t) {
+    Tessellator all(t, {});
+    all.materialiseAll();
+    const auto want = vertexHeights(all);
+    for (const auto& [at, height] : vertexHeights(tess)) {
+        const auto it = want.find(at);
+        if (it == want.end() || it->second != height) {
+            ADD_FAILURE() << "vertex " << at[0] << "," << at[1] << ": " << height << " vs "
+                          << (it == want.end() ? -1 : it->second);
+            return false;
+        }
+    }
+    return true;
+}
+
+// Records, bounds, vertex heights and mesh equal those of a tessellator built from scratch on
+// the same terrain: what incremental updates must keep. Blocks resident in `tess` (kept through
+// the ops) must hold what a fresh build with every block gives.
 void expectSameAsFreshBuild(
     Tessellator& tess, const Terrain& t, const Camera& c, std::int64_t min_diamonds) {
     Tessellator fresh(t, {});
     fresh.update(c);
-    EXPECT_EQ(tess.blockCount(), fresh.blockCount());
+    Tessellator all(t, {});
+    all.materialiseAll();
+    EXPECT_EQ(tess.detailCellCount(), fresh.detailCellCount());
     std::int64_t compared = 0;
     for (std::int32_t y = 0; y <= (t.spec().paddedHeight() - 1) * 16; ++y)
         for (std::int32_t x = 0; x <= (t.spec().paddedWidth() - 1) * 16; ++x) {
             const double a = tess.deltaAt({x, y});
-            const double b = fresh.deltaAt({x, y});
-            ASSERT_EQ(a, b) << "diamond at " << x << "," << y;
-            compared += a >= 0.0 ? 1 : 0;
+            if (a < 0.0)
+                continue;
+            ASSERT_EQ(a, all.deltaAt({x, y})) << "diamond at " << x << "," << y;
+            if (const double b = fresh.deltaAt({x, y}); b >= 0.0) {
+                ASSERT_EQ(a, b) << "diamond at " << x << "," << y;
+            }
+            ++compared;
         }
     EXPECT_GT(compared, min_diamonds);
     tess.update(c);
     EXPECT_EQ(leaves(tess), leaves(fresh));
-    EXPECT_TRUE(vertexHeights(tess) == vertexHeights(fresh)) << "a vertex height differs";
+    EXPECT_TRUE(verticesMatchAFreshBuild(tess, t)) << "a vertex height differs";
     expectIndexListsMatchMesh(tess);
 }
 
@@ -570,6 +694,7 @@ TEST(RoamMesh, IncrementalBoundsAfterOpsEqualAFreshBuild) {
     Tessellator tess(t, {});
     const Camera c = overview(t);
     tess.update(c);
+    tess.materialiseAll(); // every block then follows the ops incrementally
     CraterSeries s;
     s.seed = 4;
     s.count = 30;
@@ -626,8 +751,7 @@ TEST(RoamMesh, ABattleFedOpByOpEqualsAFreshBuild) {
         tess.update(c);
         ++craters;
         if (shot < 12) { // (shot 8 straightens a patch one ring out; later ones cover it up)
-            Tessellator fresh(t, {});
-            ASSERT_TRUE(vertexHeights(tess) == vertexHeights(fresh))
+            ASSERT_TRUE(verticesMatchAFreshBuild(tess, t))
                 << "shot " << shot << " left a vertex height stale";
         }
     }
@@ -812,12 +936,13 @@ TEST(RoamMesh, APatchOnAnUnpaddedMapBorderIsRefinedLikeAnyOther) {
     TessellatorOptions o;
     o.tau_pixels = 0.5;
     Tessellator tess(t, o);
-    EXPECT_GT(tess.deltaAt({64 * 16, 32 * 16 + 8}), 0.0) << "the border wedge has a bound";
     const Camera c = lookAt(
         glm::dvec3(61.0, 32.5, surfaceHeight(t, 61.0, 32.5) + 1.5),
         glm::dvec3(64.0, 32.5, surfaceHeight(t, 64.0, 32.5)));
     for (int i = 0; i < 2; ++i)
         tess.update(c);
+    // the virtual cell's block, materialised when the real cell before it was refined
+    EXPECT_GT(tess.deltaAt({64 * 16, 32 * 16 + 8}), 0.0) << "the border wedge has a bound";
     expectConforming(tess, t.spec());
     expectIndexListsMatchMesh(tess);
     // 1.5 m from a crater rim even the patch grid's own error shows (finest level, reported
@@ -856,7 +981,8 @@ TEST(RoamMesh, VertexVersionsFollowBlockChangesWhileARebuildIsPending) {
     Terrain t = makeHills(33, 257, 257);
     Tessellator tess(t, {});
     tess.update(overview(t, 60.0));
-    tess.setTau(0.9); // the next update rebuilds; ops meanwhile must still bump versions
+    tess.materialiseAll(); // blocks an op refills (none yet: the hills have no patch)
+    tess.setTau(0.9);      // the next update rebuilds; ops meanwhile must still bump versions
     std::vector<std::int32_t> count;
     std::vector<std::uint32_t> version;
     for (std::int32_t i = 0; i < tess.tileCount(); ++i) {
@@ -875,6 +1001,16 @@ TEST(RoamMesh, VertexVersionsFollowBlockChangesWhileARebuildIsPending) {
     ASSERT_TRUE(effect.ok());
     ASSERT_NE(t.findPatch(63, 100), nullptr);
     tess.terrainChanged(std::span<const CellRect>(&effect->cells, 1), false);
+    // the op moved heights in tiles 4 and 5 (its cells reach both); nothing is resident there
+    // yet, so the vertex counts stay
+    for (const std::int32_t i : {4, 5}) {
+        EXPECT_NE(tess.tileVertexVersion(i), version[i]) << "tile " << i;
+        version[i] = tess.tileVertexVersion(i);
+    }
+    // refining the crater closely (the rebuild) materialises blocks on both sides of the border
+    tess.update(lookAt(
+        glm::dvec3(62.0, 98.5, surfaceHeight(t, 62.0, 98.5) + 1.0),
+        glm::dvec3(63.5, 100.0, surfaceHeight(t, 63.5, 100.0))));
     int changed = 0;
     for (std::int32_t i = 0; i < tess.tileCount(); ++i)
         if (tess.tileVertexCount(i) != count[i]) {

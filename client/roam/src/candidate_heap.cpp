@@ -4,8 +4,9 @@
 
 namespace terrain::roam {
 
-void CandidateHeap::resizeIds(std::size_t ids) {
-    position_.resize(ids, -1);
+void CandidateHeap::resizeIds(std::size_t eager, std::size_t pooled) {
+    position_.resize(eager, -1);
+    pooled_position_.resize(pooled, -1);
 }
 
 void CandidateHeap::siftUp(std::size_t i) {
@@ -15,11 +16,11 @@ void CandidateHeap::siftUp(std::size_t i) {
         if (heap_[parent].key <= e.key)
             break;
         heap_[i] = heap_[parent];
-        position_[heap_[i].id] = static_cast<std::int32_t>(i);
+        position(heap_[i].id) = static_cast<std::int32_t>(i);
         i = parent;
     }
     heap_[i] = e;
-    position_[e.id] = static_cast<std::int32_t>(i);
+    position(e.id) = static_cast<std::int32_t>(i);
 }
 
 void CandidateHeap::siftDown(std::size_t i) {
@@ -34,19 +35,19 @@ void CandidateHeap::siftDown(std::size_t i) {
         if (e.key <= heap_[child].key)
             break;
         heap_[i] = heap_[child];
-        position_[heap_[i].id] = static_cast<std::int32_t>(i);
+        position(heap_[i].id) = static_cast<std::int32_t>(i);
         i = child;
     }
     heap_[i] = e;
-    position_[e.id] = static_cast<std::int32_t>(i);
+    position(e.id) = static_cast<std::int32_t>(i);
 }
 
 void CandidateHeap::push(std::uint32_t id, double key) {
-    if (position_[id] >= 0) {
-        const auto i = static_cast<std::size_t>(position_[id]);
+    if (position(id) >= 0) {
+        const auto i = static_cast<std::size_t>(position(id));
         heap_[i].key = key;
         siftUp(i);
-        siftDown(static_cast<std::size_t>(position_[id]));
+        siftDown(static_cast<std::size_t>(position(id)));
         return;
     }
     heap_.push_back({key, id});
@@ -54,27 +55,28 @@ void CandidateHeap::push(std::uint32_t id, double key) {
 }
 
 void CandidateHeap::remove(std::uint32_t id) {
-    const auto i = static_cast<std::size_t>(position_[id]);
-    position_[id] = -1;
+    const auto i = static_cast<std::size_t>(position(id));
+    position(id) = -1;
     const Entry last = heap_.back();
     heap_.pop_back();
     if (i == heap_.size())
         return;
     heap_[i] = last;
-    position_[last.id] = static_cast<std::int32_t>(i);
+    position(last.id) = static_cast<std::int32_t>(i);
     siftUp(i);
-    siftDown(static_cast<std::size_t>(position_[last.id]));
+    siftDown(static_cast<std::size_t>(position(last.id)));
 }
 
 void CandidateHeap::clear() {
     for (const Entry& e : heap_)
-        position_[e.id] = -1;
+        position(e.id) = -1;
     heap_.clear();
 }
 
 void CandidateHeap::reset() {
     heap_.clear();
     position_.clear();
+    pooled_position_.clear();
 }
 
 } // namespace terrain::roam

@@ -1,13 +1,30 @@
+#include <terrain/assert.h>
 #include <terrain/fixed_point.h>
 #include <terrain/roam/detail_blocks.h>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 
 namespace terrain::roam {
 
 namespace {
 
 static_assert(kFineUnitsPerQuantum == kBlockSide - 1, "fine units make 1/16-cell points exact");
+
+float roundedUp(std::int64_t v) {
+    float f = static_cast<float>(v);
+    if (static_cast<std::int64_t>(f) < v)
+        f = std::nextafter(f, std::numeric_limits<float>::infinity());
+    return f;
+}
+
+float roundedDown(std::int64_t v) {
+    float f = static_cast<float>(v);
+    if (static_cast<std::int64_t>(f) > v)
+        f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+    return f;
+}
 
 std::int64_t exactBaseHeight(const CellCorners& c, Diagonal d, std::int32_t k, std::int32_t l) {
     return baseHeightScaled(c, d, k, l, kBlockSide - 1);
@@ -17,18 +34,18 @@ std::int64_t exactBaseHeight(const CellCorners& c, Diagonal d, std::int32_t k, s
 
 void DetailBlocks::reset(const Terrain& t) {
     // one virtual column and row past the padded grid: a diamond on the map's last line belongs
-    // to the cell on its +x / +y side, so a patch on an unpadded border needs a block there
+    // to the cell on its +x / +y side, so a patch on an unpadded border needs a record there
     cells_x_ = t.spec().paddedWidth();
     cells_y_ = t.spec().paddedHeight();
-    block_of_cell_.assign(
+    record_of_cell_.assign(
         static_cast<std::size_t>(cells_x_) * static_cast<std::size_t>(cells_y_), -1);
-    cell_of_block_.clear();
+    records_.clear();
+    free_records_.clear();
+    record_of_block_.clear();
     free_.clear();
     heights_.clear();
-    finest_error_.clear();
-    has_patch_.clear();
-    // every patch cell marks its halo, in cell order so slot ids are deterministic
-    std::vector<std::uint8_t> needed(block_of_cell_.size(), 0);
+    // every patch cell marks its halo, in cell order so record ids are deterministic
+    std::vector<std::uint8_t> needed(record_of_cell_.size(), 0);
     for (std::int32_t tile = 0; tile < t.spec().tileCount(); ++tile) {
         const std::int32_t tx = tile % t.spec().tilesX();
         const std::int32_t ty = tile / t.spec().tilesX();
@@ -39,20 +56,16 @@ void DetailBlocks::reset(const Terrain& t) {
                  y <= std::min(cells_y_ - 1, cy + kDetailHaloCells); ++y)
                 for (std::int32_t x = std::max(0, cx - kDetailHaloCells);
                      x <= std::min(cells_x_ - 1, cx + kDetailHaloCells); ++x)
-                    needed
-                        [static_cast<std::size_t>(y) * static_cast<std::size_t>(cells_x_) +
-                         static_cast<std::size_t>(x)] = 1;
+                    needed[cellIndex(x, y)] = 1;
         }
     }
     for (std::int32_t y = 0; y < cells_y_; ++y)
         for (std::int32_t x = 0; x < cells_x_; ++x)
-            if (needed
-                    [static_cast<std::size_t>(y) * static_cast<std::size_t>(cells_x_) +
-                     static_cast<std::size_t>(x)] != 0)
-                fill(t, take(x, y));
+            if (needed[cellIndex(x, y)] != 0)
+                summarise(t, takeRecord(x, y));
 }
 
-bool DetailBlocks::needsBlock(const Terrain& t, std::int32_t cx, std::int32_t cy) const {
+bool DetailBlocks::needsRecord(const Terrain& t, std::int32_t cx, std::int32_t cy) const {
     const std::int32_t real_x = t.spec().cellsX();
     const std::int32_t real_y = t.spec().cellsY();
     for (std::int32_t y = std::max(0, cy - kDetailHaloCells);
@@ -79,8 +92,8 @@ void DetailBlocks::plan(
     const auto [x0, y0, x1, y1] = aroundChange(cells);
     for (std::int32_t y = y0; y <= y1; ++y)
         for (std::int32_t x = x0; x <= x1; ++x)
-            if (const std::int32_t block = blockOf(x, y); block >= 0 && !needsBlock(t, x, y))
-                removing.push_back(block);
+            if (const std::int32_t r = recordOf(x, y); r >= 0 && !needsRecord(t, x, y))
+                removing.push_back(r);
 }
 
 void DetailBlocks::update(
@@ -93,53 +106,114 @@ void DetailBlocks::update(
     const auto [x0, y0, x1, y1] = aroundChange(cells);
     for (std::int32_t y = y0; y <= y1; ++y) {
         for (std::int32_t x = x0; x <= x1; ++x) {
-            const bool need = needsBlock(t, x, y);
-            const std::int32_t block = blockOf(x, y);
-            if (need && block < 0) {
-                const std::int32_t b = take(x, y);
-                fill(t, b);
-                added.push_back(b);
-            } else if (!need && block >= 0) {
-                release(block);
-                removed.push_back(block);
-            } else if (
-                block >= 0 && x >= cells.x0 && x <= cells.x1 && y >= cells.y0 && y <= cells.y1) {
-                fill(t, block);
+            const bool need = needsRecord(t, x, y);
+            const std::int32_t r = recordOf(x, y);
+            if (need && r < 0) {
+                const std::int32_t made = takeRecord(x, y);
+                summarise(t, made);
+                added.push_back(made);
+            } else if (!need && r >= 0) {
+                TERRAIN_ASSERT(records_[idx(r)].block < 0); // released by the tessellator
+                dropRecord(r);
+                removed.push_back(r);
+            } else if (r >= 0 && x >= cells.x0 && x <= cells.x1 && y >= cells.y0 && y <= cells.y1) {
+                summarise(t, r);
+                if (records_[idx(r)].block >= 0)
+                    fill(t, records_[idx(r)].block);
             }
         }
     }
 }
 
-std::int32_t DetailBlocks::take(std::int32_t cx, std::int32_t cy) {
+std::int32_t DetailBlocks::takeRecord(std::int32_t cx, std::int32_t cy) {
+    std::int32_t r = 0;
+    if (!free_records_.empty()) {
+        r = free_records_.back();
+        free_records_.pop_back();
+    } else {
+        r = recordCapacity();
+        records_.emplace_back();
+    }
+    records_[idx(r)] = {};
+    records_[idx(r)].cell = {cx, cy};
+    record_of_cell_[cellIndex(cx, cy)] = r;
+    return r;
+}
+
+void DetailBlocks::dropRecord(std::int32_t r) {
+    const CellXY c = records_[idx(r)].cell;
+    record_of_cell_[cellIndex(c.x, c.y)] = -1;
+    records_[idx(r)] = {};
+    free_records_.push_back(r);
+}
+
+void DetailBlocks::summarise(const Terrain& t, std::int32_t r) {
+    Record& rec = records_[idx(r)];
+    const std::int32_t last_x = t.spec().paddedWidth() - 2; // last cell of the padded grid
+    const std::int32_t last_y = t.spec().paddedHeight() - 2;
+    rec.has_patch = false;
+    rec.finest_error = 0.0f;
+    rec.cell_error = 0.0f;
+    rec.lo = 0.0f;
+    rec.hi = 0.0f;
+    if (rec.cell.x > last_x || rec.cell.y > last_y)
+        return; // a virtual cell: no surface of its own
+    const bool real = rec.cell.x < t.spec().cellsX() && rec.cell.y < t.spec().cellsY();
+    const DetailPatch* patch = real ? t.findPatch(rec.cell.x, rec.cell.y) : nullptr;
+    const CellCorners c = t.corners(rec.cell.x, rec.cell.y);
+    std::int64_t lo = std::int64_t{std::min({c.h00, c.h10, c.h01, c.h11})} * kFineUnitsPerQuantum;
+    std::int64_t hi = std::int64_t{std::max({c.h00, c.h10, c.h01, c.h11})} * kFineUnitsPerQuantum;
+    if (patch == nullptr) { // vertices exactly on the base triangles, which are the surface
+        rec.lo = roundedDown(lo);
+        rec.hi = roundedUp(hi);
+        return;
+    }
+    rec.has_patch = true;
+    // the bound already allows half a quantum of rounding; ours is 1/32
+    rec.finest_error = patch->grid_error_bound * static_cast<float>(kFineUnitsPerQuantum);
+    const std::int64_t dev =
+        static_cast<std::int64_t>(patch->deviation_bound) * kFineUnitsPerQuantum;
+    // vertices: within dev of the base, plus half a unit of rounding (1 rounded up)
+    rec.lo = roundedDown(lo - dev - 1);
+    rec.hi = roundedUp(hi + dev + 1);
+    // a triangle on vertices inside one base triangle is within dev + 1 of that (linear) base
+    // triangle, and the surface within dev
+    rec.cell_error = roundedUp(2 * dev + 1);
+}
+
+std::int32_t DetailBlocks::materialise(const Terrain& t, std::int32_t r) {
+    TERRAIN_ASSERT(records_[idx(r)].block < 0);
     std::int32_t block = 0;
     if (!free_.empty()) {
         block = free_.back();
         free_.pop_back();
     } else {
         block = capacity();
-        cell_of_block_.emplace_back();
+        record_of_block_.push_back(-1);
         heights_.resize(heights_.size() + kBlockVertices);
-        finest_error_.push_back(0.0f);
-        has_patch_.push_back(0);
     }
-    cell_of_block_[idx(block)] = {cx, cy};
-    block_of_cell_
-        [static_cast<std::size_t>(cy) * static_cast<std::size_t>(cells_x_) +
-         static_cast<std::size_t>(cx)] = block;
+    record_of_block_[idx(block)] = r;
+    records_[idx(r)].block = block;
+    fill(t, block);
     return block;
 }
 
 void DetailBlocks::release(std::int32_t block) {
-    const CellXY c = cell_of_block_[idx(block)];
-    block_of_cell_
-        [static_cast<std::size_t>(c.y) * static_cast<std::size_t>(cells_x_) +
-         static_cast<std::size_t>(c.x)] = -1;
-    cell_of_block_[idx(block)] = {};
+    records_[idx(record_of_block_[idx(block)])].block = -1;
+    record_of_block_[idx(block)] = -1;
     free_.push_back(block);
 }
 
+std::size_t DetailBlocks::memoryBytes() const {
+    return record_of_cell_.capacity() * sizeof(std::int32_t) +
+           records_.capacity() * sizeof(Record) +
+           (free_records_.capacity() + record_of_block_.capacity() + free_.capacity()) *
+               sizeof(std::int32_t) +
+           heights_.capacity() * sizeof(std::int64_t);
+}
+
 void DetailBlocks::fill(const Terrain& t, std::int32_t block) {
-    const CellXY c = cell_of_block_[idx(block)];
+    const CellXY c = cellOf(block);
     std::int64_t* out = heights_.data() + idx(block) * kBlockVertices;
     const std::int32_t last_x = t.spec().paddedWidth() - 2; // last cell of the padded grid
     const std::int32_t last_y = t.spec().paddedHeight() - 2;
@@ -147,21 +221,15 @@ void DetailBlocks::fill(const Terrain& t, std::int32_t block) {
         // a virtual cell past the grid: it carries diamond state only; the tessellator takes
         // heights on the map's last line from the real cell before it
         std::fill(out, out + kBlockVertices, std::int64_t{0});
-        has_patch_[idx(block)] = 0;
-        finest_error_[idx(block)] = 0.0f;
         return;
     }
     const bool real = c.x < t.spec().cellsX() && c.y < t.spec().cellsY();
     const DetailPatch* patch = real ? t.findPatch(c.x, c.y) : nullptr;
-    has_patch_[idx(block)] = patch != nullptr ? 1 : 0;
     if (patch != nullptr) {
         std::array<std::int64_t, kPatchGridVertices> numerators{};
         gridNumerators(*patch, numerators);
         for (std::size_t i = 0; i < numerators.size(); ++i)
             out[i] = roundDiv(numerators[i] * kFineUnitsPerQuantum, kGridDenominator);
-        // the bound already allows half a quantum of rounding; ours is 1/32
-        finest_error_[idx(block)] =
-            patch->grid_error_bound * static_cast<float>(kFineUnitsPerQuantum);
         return;
     }
     const CellCorners corners = t.corners(c.x, c.y);
@@ -169,7 +237,6 @@ void DetailBlocks::fill(const Terrain& t, std::int32_t block) {
     for (std::int32_t l = 0; l < kBlockSide; ++l)
         for (std::int32_t k = 0; k < kBlockSide; ++k)
             out[l * kBlockSide + k] = exactBaseHeight(corners, d, k, l);
-    finest_error_[idx(block)] = 0.0f;
 }
 
 } // namespace terrain::roam

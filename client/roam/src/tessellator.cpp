@@ -39,28 +39,31 @@ void Tessellator::adoptSpec() {
     tile_blocks_.resize(tiles);
     tile_holes_.clear();
     tile_holes_.resize(tiles);
-    delta_.clear();
-    zlo_.clear();
-    zhi_.clear();
+    bounds_.clear();
     state_.clear();
+    pooled_bounds_.clear();
+    pooled_cap_.clear();
+    pooled_state_.clear();
     heap_.reset();
     block_local_.clear();
+    block_used_.clear();
+    clock_hand_ = 0;
 }
 
 // ---- candidates ---------------------------------------------------------------------------
 
 void Tessellator::setCandidate(DiamondId id, std::uint8_t kind) {
-    state_[id] = static_cast<std::uint8_t>((state_[id] & kActive) | kind);
+    state(id) = static_cast<std::uint8_t>((state(id) & kActive) | kind);
 }
 
 void Tessellator::clearCandidate(DiamondId id) {
-    state_[id] = static_cast<std::uint8_t>(state_[id] & kActive);
+    state(id) = static_cast<std::uint8_t>(state(id) & kActive);
     if (heap_.contains(id))
         heap_.remove(id);
 }
 
 void Tessellator::evaluate(const ViewMetric& m, DiamondId id, FrameStats& stats) {
-    const std::uint8_t st = state_[id];
+    const std::uint8_t st = state(id);
     if ((st & (kSplitCandidate | kMergeCandidate)) == 0)
         return;
     if (heap_.contains(id))
@@ -75,7 +78,7 @@ void Tessellator::evaluate(const ViewMetric& m, DiamondId id, FrameStats& stats)
             merges_.push_back({0.0, id});
         return;
     }
-    const double delta = delta_[id];
+    const double delta = bounds(id).delta;
     const double distance = m.distanceTo(box);
     const double any = m.screenErrorAtDistance(distance, delta);
     const double p = any > tau && !m.intersectsFrustum(box) ? 0.0 : any;
@@ -85,7 +88,7 @@ void Tessellator::evaluate(const ViewMetric& m, DiamondId id, FrameStats& stats)
         if (p > tau) {
             splits_.push_back({p, id});
         } else if (any > tau) {
-            state_[id] |= kWatched;
+            state(id) |= kWatched;
             watched_.push_back(id);
         } else if (m.errorScale() * delta / options_.tau_pixels > m.camera().near_plane) {
             // (tested at tau, not at the threshold: the threshold may fall back to tau, and
@@ -104,19 +107,23 @@ void Tessellator::collectCandidates(const Triangle& t) {
     if (t.level >= kFinestTriangleLevel)
         return;
     const LatticePoint p = splitPoint(t);
-    const DiamondId id = idOf(p);
+    const Diamond d = diamondAt(p);
+    DiamondId id = idOf(p);
+    // a split candidate in a cell whose block is not resident (a virtual cell past the grid,
+    // whose diamonds hang from the real cell before it) is materialised
+    if (id == kNoDiamond && parentsActive(d))
+        id = resolve(p);
     if (id == kNoDiamond)
         return;
-    const Diamond d = diamondAt(p);
     if (active(id)) {
-        if ((state_[id] & kMergeCandidate) == 0 && !hasActiveChild(d)) {
+        if ((state(id) & kMergeCandidate) == 0 && !hasActiveChild(d)) {
             setCandidate(id, kMergeCandidate);
             due_.push_back(id);
         }
         const auto halves = splitTriangle(t);
         collectCandidates(halves[0]);
         collectCandidates(halves[1]);
-    } else if ((state_[id] & kSplitCandidate) == 0 && canActivate(d, id)) {
+    } else if ((state(id) & kSplitCandidate) == 0 && canActivate(d, id)) {
         setCandidate(id, kSplitCandidate);
         due_.push_back(id);
     }
@@ -129,9 +136,21 @@ void Tessellator::refineTopDown(
     if (t.level >= kFinestTriangleLevel || capped)
         return;
     const LatticePoint p = splitPoint(t);
-    const DiamondId id = idOf(p);
-    if (id == kNoDiamond)
-        return;
+    DiamondId id = idOf(p);
+    if (id == kNoDiamond) {
+        // a detail cell whose block is not resident: materialised only if it may be split
+        const Diamond d = diamondAt(p);
+        if (blocks_.recordOf(p.x / kLatticePerCell, p.y / kLatticePerCell) < 0 || isGridVertex(p) ||
+            recordPriority(m, d) <= threshold_)
+            return;
+        id = resolve(p);
+        if (id == kNoDiamond) {
+            capped = refused_by_cap_; // the pool refused
+            return;
+        }
+    } else if (id >= kPooled) {
+        block_used_[(id - kPooled) / kDiamondsPerBlock] = use_epoch_;
+    }
     if (!active(id)) {
         const Diamond d = diamondAt(p);
         ++stats.evaluations;
@@ -149,7 +168,7 @@ void Tessellator::refineTopDown(
 
 void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
     bookkeeping_ = false;
-    std::fill(state_.begin(), state_.end(), std::uint8_t{0});
+    clearAllState();
     heap_.clear();
     watched_.clear();
     rekey_.clear();
@@ -177,7 +196,7 @@ void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
         // the cap binds: spend the triangles where the error is largest, not where we began.
         // Split/merge stops short of the cap, so that the next frames have room to follow the
         // view before the threshold must rise again.
-        std::fill(state_.begin(), state_.end(), std::uint8_t{0});
+        clearAllState();
         triangles_ = roots;
         refused_by_cap_ = false;
         const std::int64_t target =
@@ -239,7 +258,7 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
                 ? heap_.at(k)
                 : heap_.at(
                       static_cast<std::size_t>(sweep_phase_ * static_cast<double>(heap_.size())));
-        if ((state_[e.id] & kMergeCandidate) == 0 || e.key <= travel_)
+        if ((state(e.id) & kMergeCandidate) == 0 || e.key <= travel_)
             continue;
         const Box box = boxOf(diamondAt(pointOf(e.id)), e.id);
         if (box.lo.x > box.hi.x || !m.intersectsFrustum(box))
@@ -256,8 +275,8 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
     watched_next_.swap(watched_);
     watched_.clear();
     for (const DiamondId id : watched_next_)
-        if ((state_[id] & kWatched) != 0) {
-            state_[id] = static_cast<std::uint8_t>(state_[id] & ~kWatched);
+        if ((state(id) & kWatched) != 0) {
+            state(id) = static_cast<std::uint8_t>(state(id) & ~kWatched);
             due_.push_back(id);
         }
     const auto by_priority_up = [](const Action& a, const Action& b) {
@@ -276,7 +295,7 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
         evaluating_.clear();
         std::sort(merges_.begin(), merges_.end(), by_priority_up);
         for (const Action& a : merges_) {
-            if ((state_[a.id] & kMergeCandidate) == 0 || !active(a.id))
+            if ((state(a.id) & kMergeCandidate) == 0 || !active(a.id))
                 continue;
             if (stats.splits + stats.merges >= options_.work_budget) {
                 deferred_.push_back(a.id);
@@ -289,7 +308,7 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
         merges_.clear();
         std::sort(splits_.begin(), splits_.end(), by_priority_down);
         for (const Action& a : splits_) {
-            if ((state_[a.id] & kSplitCandidate) == 0 || active(a.id))
+            if ((state(a.id) & kSplitCandidate) == 0 || active(a.id))
                 continue;
             if (stats.splits + stats.merges >= options_.work_budget) {
                 deferred_.push_back(a.id);
@@ -311,7 +330,7 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
     }
     // left for the next frame: due again as soon as it starts
     for (const DiamondId id : deferred_)
-        if ((state_[id] & (kSplitCandidate | kMergeCandidate)) != 0)
+        if ((state(id) & (kSplitCandidate | kMergeCandidate)) != 0)
             heap_.push(id, travel_);
 }
 
@@ -328,10 +347,10 @@ void Tessellator::finishFrame(const ViewMetric& m, FrameStats& stats) {
         Box box;
         box.lo = {
             tx * kLatticePerTile * metres_per_lattice_, ty * kLatticePerTile * metres_per_lattice_,
-            zlo_[id]};
+            bounds(id).zlo};
         box.hi = {
             std::min((tx + 1) * kLatticePerTile, real_x_) * metres_per_lattice_,
-            std::min((ty + 1) * kLatticePerTile, real_y_) * metres_per_lattice_, zhi_[id]};
+            std::min((ty + 1) * kLatticePerTile, real_y_) * metres_per_lattice_, bounds(id).zhi};
         const bool visible = m.intersectsFrustum(box);
         tile_visible_[idx(tile)] = visible ? 1 : 0;
         stats.triangles += mesh.triangleCount();
@@ -348,6 +367,11 @@ void Tessellator::finishFrame(const ViewMetric& m, FrameStats& stats) {
 FrameStats Tessellator::update(const Camera& camera) {
     const ViewMetric m(camera);
     FrameStats stats;
+    ++frame_;
+    ++use_epoch_;
+    const std::int64_t pool_refusals = pool_refusals_;
+    const std::int64_t materialised = materialised_;
+    const std::int64_t evicted = evicted_;
     const double teleport = options_.teleport_metres > 0.0
                                 ? options_.teleport_metres
                                 : 8.0 * kLatticePerTile * metres_per_lattice_;
@@ -371,6 +395,7 @@ FrameStats Tessellator::update(const Camera& camera) {
         spreadRekey();
         updateSplitMerge(m, stats);
         stats.error_bound_pixels = std::max(threshold, unmet_);
+        stats.refused_by_cap += pool_refusals_ - pool_refusals; // the pool binds like the cap
         followCap(stats);
     }
     if (stats.rebuilt)
@@ -379,13 +404,18 @@ FrameStats Tessellator::update(const Camera& camera) {
     last_error_scale_ = m.errorScale();
     last_near_ = camera.near_plane;
     finishFrame(m, stats);
+    stats.refused_by_pool = pool_refusals_ - pool_refusals;
+    stats.blocks_materialised = materialised_ - materialised;
+    stats.blocks_evicted = evicted_ - evicted;
     return stats;
 }
 
 bool Tessellator::splitAt(LatticePoint p, FrameStats& stats) {
-    const DiamondId id = idOf(p);
     const Diamond d = diamondAt(p);
-    if (id == kNoDiamond || !d.valid() || !initialized_)
+    if (!d.valid() || !initialized_)
+        return false;
+    const DiamondId id = resolve(p);
+    if (id == kNoDiamond)
         return false;
     return activate(d, id, false, stats);
 }
@@ -397,9 +427,11 @@ void Tessellator::setTau(double tau_pixels) {
 }
 
 std::size_t Tessellator::memoryBytes() const {
-    std::size_t bytes =
-        delta_.capacity() * sizeof(float) * 3 + state_.capacity() + heap_.memoryBytes() +
-        static_cast<std::size_t>(blocks_.capacity()) * (kBlockVertices * sizeof(std::int64_t) + 16);
+    std::size_t bytes = (bounds_.capacity() + pooled_bounds_.capacity()) * sizeof(Bounds) +
+                        pooled_cap_.capacity() * sizeof(float) + state_.capacity() +
+                        pooled_state_.capacity() + heap_.memoryBytes() + blocks_.memoryBytes() +
+                        (block_local_.capacity() * sizeof(std::int32_t)) +
+                        block_used_.capacity() * sizeof(std::uint64_t);
     for (const TileMesh& t : tiles_)
         bytes += t.memoryBytes();
     return bytes;

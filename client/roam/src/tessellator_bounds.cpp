@@ -68,12 +68,32 @@ Tessellator::DiamondId Tessellator::idOf(LatticePoint p) const {
     if (isGridVertex(p))
         return static_cast<DiamondId>(p.y / kLatticePerCell) * static_cast<DiamondId>(grid_w_) +
                static_cast<DiamondId>(p.x / kLatticePerCell);
-    const std::int32_t block = blocks_.blockOf(p.x / kLatticePerCell, p.y / kLatticePerCell);
+    const std::int32_t record = blocks_.recordOf(p.x / kLatticePerCell, p.y / kLatticePerCell);
+    if (record < 0)
+        return kNoDiamond;
+    const std::int32_t k = p.x % kLatticePerCell;
+    const std::int32_t l = p.y % kLatticePerCell;
+    if (k == kCentreLocal && l == kCentreLocal)
+        return centreId(record);
+    const std::int32_t block = blocks_.blockOfRecord(record);
     if (block < 0)
         return kNoDiamond;
-    return grid_count_ + static_cast<DiamondId>(block) * kDiamondsPerBlock +
-           static_cast<DiamondId>(
-               (p.y % kLatticePerCell) * kLatticePerCell + p.x % kLatticePerCell);
+    return pooledId(block, static_cast<std::uint32_t>(l * kLatticePerCell + k));
+}
+
+Tessellator::DiamondId Tessellator::resolve(LatticePoint p) {
+    const DiamondId id = idOf(p);
+    if (id != kNoDiamond) {
+        if (id >= kPooled)
+            block_used_[(id - kPooled) / kDiamondsPerBlock] = use_epoch_;
+        return id;
+    }
+    if (!insideMap(p) || isGridVertex(p))
+        return kNoDiamond;
+    const std::int32_t record = blocks_.recordOf(p.x / kLatticePerCell, p.y / kLatticePerCell);
+    if (record < 0 || materialise(record) < 0)
+        return kNoDiamond;
+    return idOf(p);
 }
 
 LatticePoint Tessellator::pointOf(DiamondId id) const {
@@ -83,7 +103,12 @@ LatticePoint Tessellator::pointOf(DiamondId id) const {
             static_cast<std::int32_t>(id % w) * kLatticePerCell,
             static_cast<std::int32_t>(id / w) * kLatticePerCell};
     }
-    const DiamondId r = id - grid_count_;
+    if (id < kPooled) {
+        const DetailBlocks::CellXY c =
+            blocks_.recordCell(static_cast<std::int32_t>(id - grid_count_));
+        return {c.x * kLatticePerCell + kCentreLocal, c.y * kLatticePerCell + kCentreLocal};
+    }
+    const DiamondId r = id - kPooled;
     const auto block = static_cast<std::int32_t>(r / kDiamondsPerBlock);
     const auto local = static_cast<std::int32_t>(r % kDiamondsPerBlock);
     const DetailBlocks::CellXY c = blocks_.cellOf(block);
@@ -132,35 +157,40 @@ std::int64_t Tessellator::heightAt(LatticePoint p) const {
 }
 
 void Tessellator::resizeDiamondState() {
-    const std::size_t n =
-        grid_count_ + static_cast<std::size_t>(blocks_.capacity()) * kDiamondsPerBlock;
-    // ids are uint32 with kNoDiamond reserved: 16 M blocks on the largest map, far beyond memory
-    TERRAIN_ASSERT(n < kNoDiamond);
-    delta_.resize(n, 0.0f);
-    zlo_.resize(n, 0.0f);
-    zhi_.resize(n, 0.0f);
-    state_.resize(n, 0);
-    heap_.resizeIds(n);
+    const std::size_t eager = grid_count_ + static_cast<std::size_t>(blocks_.recordCapacity());
+    const std::size_t pooled = static_cast<std::size_t>(blocks_.capacity()) * kDiamondsPerBlock;
+    // ids are uint32 in two ranges of 2^31 (kNoDiamond reserved): far beyond memory
+    TERRAIN_ASSERT(eager < kPooled && pooled < kNoDiamond - kPooled);
+    bounds_.resize(eager);
+    state_.resize(eager, 0);
+    pooled_bounds_.resize(pooled);
+    pooled_cap_.resize(pooled);
+    pooled_state_.resize(pooled, 0);
+    heap_.resizeIds(eager, pooled);
     block_local_.resize(idx(blocks_.capacity()), -1);
+    block_used_.resize(idx(blocks_.capacity()), 0);
 }
 
 // ---- error bounds -------------------------------------------------------------------------
 
 bool Tessellator::storeBounds(DiamondId id, float delta, float zlo, float zhi) {
-    const bool changed = delta_[id] != delta || zlo_[id] != zlo || zhi_[id] != zhi;
-    delta_[id] = delta;
-    zlo_[id] = zlo;
-    zhi_[id] = zhi;
+    Bounds& b = bounds(id);
+    const bool changed = b.delta != delta || b.zlo != zlo || b.zhi != zhi;
+    b = {delta, zlo, zhi};
     return changed;
 }
 
-double Tessellator::childBounds(LatticePoint c, double& zlo, double& zhi) const {
+double Tessellator::childBounds(LatticePoint c, double& zlo, double& zhi, float& cap) const {
     const DiamondId id = idOf(c);
     if (id != kNoDiamond) {
-        zlo = std::min(zlo, static_cast<double>(zlo_[id]));
-        zhi = std::max(zhi, static_cast<double>(zhi_[id]));
-        return delta_[id];
+        const Bounds& b = bounds(id);
+        zlo = std::min(zlo, static_cast<double>(b.zlo));
+        zhi = std::max(zhi, static_cast<double>(b.zhi));
+        if (id >= kPooled)
+            cap = std::max(cap, pooled_cap_[id - kPooled]);
+        return b.delta;
     }
+    cap = std::max(cap, cellCap(c.x / kLatticePerCell, c.y / kLatticePerCell));
     // a cell without a block is drawn with its base triangles, which are the true surface
     const Diamond d = diamondAt(c);
     for (const LatticePoint corner : hypotenuseEnds(d)) {
@@ -208,42 +238,117 @@ OwnSpan ownSpan(const Diamond& d, const Height& height, const Inside& inside, do
 } // namespace
 
 bool Tessellator::finishBounds(
-    DiamondId id, std::int64_t own_lo, std::int64_t own_hi, double delta, double lo, double hi) {
+    DiamondId id,
+    std::int64_t own_lo,
+    std::int64_t own_hi,
+    double delta,
+    double lo,
+    double hi,
+    float cap) {
+    // the nested bound and the cap are both true bounds: the smaller one is kept, and the box
+    // widened by it still holds the surface over the diamond and every descendant's box. The cap
+    // is nested too (the largest cellError of the diamond's cells and its children's caps), so a
+    // parent's kept bound is never below a child's, even across cells.
+    const float kept = std::min(roundUp(delta), cap);
+    const double widen = kept;
+    bool changed = false;
+    if (id >= kPooled) {
+        float& stored = pooled_cap_[id - kPooled];
+        changed = stored != cap;
+        stored = cap;
+    }
     return storeBounds(
-        id, roundUp(delta),
-        roundDown(std::min(static_cast<double>(own_lo) * metres_per_fine_ - delta, lo)),
-        roundUp(std::max(static_cast<double>(own_hi) * metres_per_fine_ + delta, hi)));
+               id, kept,
+               roundDown(std::min(static_cast<double>(own_lo) * metres_per_fine_ - widen, lo)),
+               roundUp(std::max(static_cast<double>(own_hi) * metres_per_fine_ + widen, hi))) ||
+           changed;
 }
 
-bool Tessellator::computeBounds(const Diamond& d, DiamondId id) {
+namespace {
+
+/// Range (fine units) of a cell without a record: its base triangles, exact.
+double cornerLo(const CellCorners& c) {
+    return static_cast<double>(std::min({c.h00, c.h10, c.h01, c.h11})) * kFineUnitsPerQuantum;
+}
+
+double cornerHi(const CellCorners& c) {
+    return static_cast<double>(std::max({c.h00, c.h10, c.h01, c.h11})) * kFineUnitsPerQuantum;
+}
+
+} // namespace
+
+float Tessellator::cellCap(std::int32_t cx, std::int32_t cy) const {
+    const std::int32_t r = blocks_.recordOf(cx, cy);
+    if (r < 0)
+        return 0.0f;
+    return roundUp(static_cast<double>(blocks_.cellError(r)) * metres_per_fine_);
+}
+
+bool Tessellator::computeCentreBounds(std::int32_t record) {
+    // the centre's triangles are the cell's base triangles, and its descendants (children across
+    // the cell's borders, theirs shrinking towards its corners) lie in the 3 x 3 cells around
+    // it: any triangle there is within the cellError of its cell, and every vertex within its
+    // cell's range (DetailBlocks::summarise)
+    const DetailBlocks::CellXY c = blocks_.recordCell(record);
+    const DiamondId id = centreId(record);
+    if (c.x > grid_w_ - 2 || c.y > grid_h_ - 2)
+        return storeBounds(id, 0.0f, 0.0f, 0.0f); // a virtual cell's centre is off the map
+    float cap = cellCap(c.x, c.y);
+    double lo = blocks_.vertexLo(record);
+    double hi = blocks_.vertexHi(record);
+    constexpr std::array<std::array<std::int32_t, 2>, 8> kNeighbours = {
+        {{-1, -1}, {0, -1}, {1, -1}, {-1, 0}, {1, 0}, {-1, 1}, {0, 1}, {1, 1}}};
+    for (const auto& [dx, dy] : kNeighbours) {
+        const std::int32_t nx = c.x + dx;
+        const std::int32_t ny = c.y + dy;
+        if (nx < 0 || ny < 0 || nx > grid_w_ - 2 || ny > grid_h_ - 2)
+            continue; // no surface past the padded grid
+        cap = std::max(cap, cellCap(nx, ny));
+        if (const std::int32_t r = blocks_.recordOf(nx, ny); r >= 0) {
+            lo = std::min(lo, static_cast<double>(blocks_.vertexLo(r)));
+            hi = std::max(hi, static_cast<double>(blocks_.vertexHi(r)));
+        } else {
+            const CellCorners k = terrain_->corners(nx, ny);
+            lo = std::min(lo, cornerLo(k));
+            hi = std::max(hi, cornerHi(k));
+        }
+    }
+    const double widen = cap;
+    return storeBounds(
+        id, cap, roundDown(lo * metres_per_fine_ - widen), roundUp(hi * metres_per_fine_ + widen));
+}
+
+bool Tessellator::computeBounds(const Diamond& d, DiamondId id, float cap) {
     const OwnSpan own = ownSpan(
         d, [&](LatticePoint p) { return heightAt(p); },
         [&](LatticePoint p) { return insideMap(p); }, metres_per_fine_);
     double child = 0.0;
     double lo = kInfinity;
     double hi = -kInfinity;
+    float nested_cap = cap;
     if (d.level == kMaxDiamondLevel) {
         for (const LatticePoint a : apexes(d)) {
             if (!insideMap(a))
                 continue;
             const LatticePoint c3 = centroidTimes3(triangleOf(d, a));
-            const std::int32_t block =
-                blocks_.blockOf(c3.x / (3 * kLatticePerCell), c3.y / (3 * kLatticePerCell));
-            if (block >= 0)
+            const std::int32_t record =
+                blocks_.recordOf(c3.x / (3 * kLatticePerCell), c3.y / (3 * kLatticePerCell));
+            if (record >= 0)
                 child = std::max(
-                    child, static_cast<double>(blocks_.finestError(block)) * metres_per_fine_);
+                    child, static_cast<double>(blocks_.finestError(record)) * metres_per_fine_);
         }
     } else {
         std::array<LatticePoint, 4> kids{};
         const int n = children(d, kids);
         for (int i = 0; i < n; ++i)
             if (insideMap(kids[idx(i)]))
-                child = std::max(child, childBounds(kids[idx(i)], lo, hi));
+                child = std::max(child, childBounds(kids[idx(i)], lo, hi, nested_cap));
     }
-    return finishBounds(id, own.lo, own.hi, own.local + child, lo, hi);
+    return finishBounds(id, own.lo, own.hi, own.local + child, lo, hi, nested_cap);
 }
 
-bool Tessellator::computeBlockBounds(const Diamond& d, DiamondId id, std::int32_t block) {
+bool Tessellator::computeBlockBounds(
+    const Diamond& d, DiamondId id, std::int32_t block, float cap) {
     // computeBounds for a diamond strictly inside its cell (local x and y both > 0): its centre,
     // hypotenuse ends, apexes and children all lie in the cell's 17 x 17 block, so heights come
     // straight from the block and most child ids from the block's own id range. The same
@@ -257,71 +362,123 @@ bool Tessellator::computeBlockBounds(const Diamond& d, DiamondId id, std::int32_
     double child = 0.0;
     double lo = kInfinity;
     double hi = -kInfinity;
+    float nested_cap = cap;
     if (d.level == kMaxDiamondLevel) {
         // both triangles lie in this cell
-        child = static_cast<double>(blocks_.finestError(block)) * metres_per_fine_;
+        child = static_cast<double>(blocks_.finestErrorOfBlock(block)) * metres_per_fine_;
     } else {
         std::array<LatticePoint, 4> kids{};
         const int n = children(d, kids);
-        const DiamondId base = grid_count_ + static_cast<DiamondId>(block) * kDiamondsPerBlock;
+        const DiamondId base = pooledId(block, 0);
         for (int i = 0; i < n; ++i) {
             const LatticePoint c = kids[idx(i)];
             const std::int32_t k = c.x - ox;
             const std::int32_t l = c.y - oy;
             if (k < kLatticePerCell && l < kLatticePerCell && (k | l) != 0) {
-                const DiamondId cid = base + static_cast<DiamondId>(l * kLatticePerCell + k);
-                lo = std::min(lo, static_cast<double>(zlo_[cid]));
-                hi = std::max(hi, static_cast<double>(zhi_[cid]));
-                child = std::max(child, static_cast<double>(delta_[cid]));
+                const std::size_t at =
+                    base - kPooled + static_cast<DiamondId>(l * kLatticePerCell + k);
+                const Bounds& b = pooled_bounds_[at];
+                lo = std::min(lo, static_cast<double>(b.zlo));
+                hi = std::max(hi, static_cast<double>(b.zhi));
+                child = std::max(child, static_cast<double>(b.delta));
+                nested_cap = std::max(nested_cap, pooled_cap_[at]);
             } else {
-                child = std::max(child, childBounds(c, lo, hi));
+                child = std::max(child, childBounds(c, lo, hi, nested_cap));
             }
         }
     }
-    return finishBounds(id, own.lo, own.hi, own.local + child, lo, hi);
+    return finishBounds(id, own.lo, own.hi, own.local + child, lo, hi, nested_cap);
 }
 
-void Tessellator::recomputeBounds(
-    std::int32_t lx0, std::int32_t ly0, std::int32_t lx1, std::int32_t ly1, bool collect) {
-    const auto& positions = localPositionsByLevel();
-    const bool whole = lx0 <= 0 && ly0 <= 0 && lx1 >= max_x_ && ly1 >= max_y_;
-    for (int level = kMaxDiamondLevel; level >= kCellTriangleLevel; --level) {
-        const std::int32_t reach = reachOfLevel(level) + kLatticePerCell;
-        const std::int32_t cx0 = std::max(0, (lx0 - reach) / kLatticePerCell);
-        const std::int32_t cy0 = std::max(0, (ly0 - reach) / kLatticePerCell);
-        const std::int32_t cx1 = std::min(blocks_.cellsX() - 1, (lx1 + reach) / kLatticePerCell);
-        const std::int32_t cy1 = std::min(blocks_.cellsY() - 1, (ly1 + reach) / kLatticePerCell);
-        auto visit_block = [&](std::int32_t block) {
-            const DetailBlocks::CellXY c = blocks_.cellOf(block);
-            // a cell of the padded grid, not a virtual one past it
-            const bool inner_cell = c.x < grid_w_ - 1 && c.y < grid_h_ - 1;
-            for (const std::uint8_t local : positions[idx(level)]) {
-                const LatticePoint p{
-                    c.x * kLatticePerCell + local % kLatticePerCell,
-                    c.y * kLatticePerCell + local / kLatticePerCell};
-                if (!insideMap(p))
-                    continue; // a virtual cell's diamonds past the map's last line
-                const DiamondId id =
-                    grid_count_ + static_cast<DiamondId>(block) * kDiamondsPerBlock + local;
-                const bool changed =
-                    inner_cell && local % kLatticePerCell != 0 && local >= kLatticePerCell
-                        ? computeBlockBounds(diamondAt(p), id, block)
-                        : computeBounds(diamondAt(p), id);
-                if (collect && changed)
-                    recomputed_.push_back(id);
-            }
-        };
-        if (whole) {
-            for (std::int32_t b = 0; b < blocks_.capacity(); ++b)
-                if (blocks_.inUse(b))
-                    visit_block(b);
-        } else {
-            for (std::int32_t cy = cy0; cy <= cy1; ++cy)
-                for (std::int32_t cx = cx0; cx <= cx1; ++cx)
-                    if (const std::int32_t b = blocks_.blockOf(cx, cy); b >= 0)
-                        visit_block(b);
-        }
+void Tessellator::boundBlocks(std::span<const std::int32_t> blocks, bool collect) {
+    // a block's diamonds nest into finer ones across its borders, and those into theirs, shrinking
+    // towards the block: its bounds depend on the 3 x 3 cells around it and no further
+    // (RoamMesh.LazyBoundsEqualBoundsBuiltForEveryCellAtOnce). Neighbours not resident are
+    // materialised for this pass only.
+    transient_.clear();
+    for (const std::int32_t block : blocks) {
+        const DetailBlocks::CellXY c = blocks_.cellOf(block);
+        for (std::int32_t y = c.y - 1; y <= c.y + 1; ++y)
+            for (std::int32_t x = c.x - 1; x <= c.x + 1; ++x)
+                if (const std::int32_t r = blocks_.recordOf(x, y);
+                    r >= 0 && blocks_.blockOfRecord(r) < 0)
+                    transient_.push_back(blocks_.materialise(*terrain_, r));
     }
+    resizeDiamondState();
+    const auto& positions = localPositionsByLevel();
+    auto visit_block = [&](std::int32_t block, int level, bool keep) {
+        const DetailBlocks::CellXY c = blocks_.cellOf(block);
+        // a cell of the padded grid, not a virtual one past it
+        const bool inner_cell = c.x < grid_w_ - 1 && c.y < grid_h_ - 1;
+        const float cap = cellCap(c.x, c.y);
+        const float cap_left = std::max(cap, cellCap(c.x - 1, c.y));
+        const float cap_below = std::max(cap, cellCap(c.x, c.y - 1));
+        for (const std::uint8_t local : positions[idx(level)]) {
+            const std::int32_t k = local % kLatticePerCell;
+            const std::int32_t l = local / kLatticePerCell;
+            const LatticePoint p{c.x * kLatticePerCell + k, c.y * kLatticePerCell + l};
+            if (!insideMap(p))
+                continue; // a virtual cell's diamonds past the map's last line
+            const DiamondId id = pooledId(block, local);
+            // a border diamond's triangles lie in this cell and the one on its -x or -y side
+            const float c_cap = k == 0 ? cap_left : l == 0 ? cap_below : cap;
+            const bool changed = inner_cell && k != 0 && l != 0
+                                     ? computeBlockBounds(diamondAt(p), id, block, c_cap)
+                                     : computeBounds(diamondAt(p), id, c_cap);
+            if (keep && collect && changed)
+                recomputed_.push_back(id);
+        }
+    };
+    for (int level = kMaxDiamondLevel; level > kCellTriangleLevel; --level) {
+        for (const std::int32_t block : transient_)
+            visit_block(block, level, false);
+        for (const std::int32_t block : blocks)
+            visit_block(block, level, true);
+    }
+    for (const std::int32_t block : transient_)
+        blocks_.release(block);
+    transient_.clear();
+}
+
+void Tessellator::recomputeBounds(CellRect cells, bool all, bool collect) {
+    // resident blocks whose 3 x 3 window meets the change, then the centres (their four edge
+    // neighbours), then the grid
+    const CellRect around = all ? CellRect{0, 0, blocks_.cellsX() - 1, blocks_.cellsY() - 1}
+                                : CellRect{
+                                      std::max(0, cells.x0 - 1), std::max(0, cells.y0 - 1),
+                                      std::min(blocks_.cellsX() - 1, cells.x1 + 1),
+                                      std::min(blocks_.cellsY() - 1, cells.y1 + 1)};
+    pass_.clear();
+    if (all) {
+        for (std::int32_t b = 0; b < blocks_.capacity(); ++b)
+            if (blocks_.inUse(b))
+                pass_.push_back(b);
+    } else {
+        for (std::int32_t cy = around.y0; cy <= around.y1; ++cy)
+            for (std::int32_t cx = around.x0; cx <= around.x1; ++cx)
+                if (const std::int32_t b = blocks_.blockOf(cx, cy); b >= 0)
+                    pass_.push_back(b);
+    }
+    if (!pass_.empty())
+        boundBlocks(pass_, collect);
+    auto centre = [&](std::int32_t r) {
+        if (computeCentreBounds(r) && collect)
+            recomputed_.push_back(centreId(r));
+    };
+    if (all) {
+        for (std::int32_t r = 0; r < blocks_.recordCapacity(); ++r)
+            if (blocks_.recordInUse(r))
+                centre(r);
+    } else {
+        for (std::int32_t cy = around.y0; cy <= around.y1; ++cy)
+            for (std::int32_t cx = around.x0; cx <= around.x1; ++cx)
+                if (const std::int32_t r = blocks_.recordOf(cx, cy); r >= 0)
+                    centre(r);
+    }
+    const std::int32_t lx0 = all ? 0 : around.x0 * kLatticePerCell;
+    const std::int32_t ly0 = all ? 0 : around.y0 * kLatticePerCell;
+    const std::int32_t lx1 = all ? max_x_ : (around.x1 + 1) * kLatticePerCell;
+    const std::int32_t ly1 = all ? max_y_ : (around.y1 + 1) * kLatticePerCell;
     for (int level = kCellTriangleLevel - 1; level >= 0; --level) {
         const std::int32_t h = halfOfLevel(level);
         const std::int32_t reach = reachOfLevel(level);
@@ -335,7 +492,7 @@ void Tessellator::recomputeBounds(
                 if (d.level != level)
                     continue;
                 const DiamondId id = idOf(d.centre);
-                if (computeBounds(d, id) && collect)
+                if (computeBounds(d, id, kNoCap) && collect)
                     recomputed_.push_back(id);
             }
     }
@@ -349,8 +506,8 @@ Box Tessellator::boxOf(const Diamond& d, DiamondId id) const {
     const std::int32_t x1 = std::min(d.centre.x + r, real_x_);
     const std::int32_t y1 = std::min(d.centre.y + r, real_y_);
     Box b;
-    b.lo = {x0 * metres_per_lattice_, y0 * metres_per_lattice_, zlo_[id]};
-    b.hi = {x1 * metres_per_lattice_, y1 * metres_per_lattice_, zhi_[id]};
+    b.lo = {x0 * metres_per_lattice_, y0 * metres_per_lattice_, bounds(id).zlo};
+    b.hi = {x1 * metres_per_lattice_, y1 * metres_per_lattice_, bounds(id).zhi};
     if (x0 >= x1 || y0 >= y1)
         b.lo.x = b.hi.x + 1.0; // empty
     return b;
@@ -360,14 +517,55 @@ double Tessellator::priority(const ViewMetric& m, const Diamond& d, DiamondId id
     const Box b = boxOf(d, id);
     if (b.lo.x > b.hi.x)
         return 0.0;
-    return m.screenError(b, delta_[id]);
+    return m.screenError(b, bounds(id).delta);
+}
+
+double Tessellator::recordPriority(const ViewMetric& m, const Diamond& d) const {
+    // the records of the cells its subtree reaches bound its delta and every vertex of its
+    // subtree, so this is at least the priority its block would give
+    const std::int32_t cx = d.centre.x / kLatticePerCell;
+    const std::int32_t cy = d.centre.y / kLatticePerCell;
+    float cap = 0.0f;
+    double lo = kInfinity;
+    double hi = -kInfinity;
+    auto add = [&](std::int32_t x, std::int32_t y) {
+        const std::int32_t r = blocks_.recordOf(x, y);
+        if (r < 0) {
+            if (x < 0 || y < 0 || x > grid_w_ - 2 || y > grid_h_ - 2)
+                return;
+            const CellCorners c = terrain_->corners(x, y);
+            lo = std::min(lo, cornerLo(c));
+            hi = std::max(hi, cornerHi(c));
+            return;
+        }
+        cap = std::max(cap, cellCap(x, y));
+        lo = std::min(lo, static_cast<double>(blocks_.vertexLo(r)));
+        hi = std::max(hi, static_cast<double>(blocks_.vertexHi(r)));
+    };
+    // its descendants reach at most the 3 x 3 cells around its cell (see computeCentreBounds)
+    for (std::int32_t y = cy - 1; y <= cy + 1; ++y)
+        for (std::int32_t x = cx - 1; x <= cx + 1; ++x)
+            add(x, y);
+    const std::int32_t reach = subtreeReach(d);
+    const std::int32_t x0 = std::max(d.centre.x - reach, 0);
+    const std::int32_t y0 = std::max(d.centre.y - reach, 0);
+    const std::int32_t x1 = std::min(d.centre.x + reach, real_x_);
+    const std::int32_t y1 = std::min(d.centre.y + reach, real_y_);
+    if (x0 >= x1 || y0 >= y1 || lo > hi)
+        return 0.0;
+    Box b;
+    b.lo = {
+        x0 * metres_per_lattice_, y0 * metres_per_lattice_, roundDown(lo * metres_per_fine_ - cap)};
+    b.hi = {
+        x1 * metres_per_lattice_, y1 * metres_per_lattice_, roundUp(hi * metres_per_fine_ + cap)};
+    return m.screenError(b, cap);
 }
 
 double Tessellator::deltaAt(LatticePoint p) const {
     const DiamondId id = idOf(p);
     if (id == kNoDiamond || !diamondAt(p).valid())
         return -1.0;
-    return delta_[id];
+    return bounds(id).delta;
 }
 
 } // namespace terrain::roam

@@ -16,6 +16,7 @@ using namespace detail;
 
 double Tessellator::refineBestFirst(const ViewMetric& m, std::int64_t target, FrameStats& stats) {
     best_first_.clear();
+    ++use_epoch_; // blocks a refused top-down pass filled the pool with may go again
     const auto by_priority = [](const auto& a, const auto& b) { return a.first < b.first; };
     // the heap holds unsplit diamonds only: a split one (forced by a finer split) is walked
     // through to its halves at once
@@ -23,9 +24,22 @@ double Tessellator::refineBestFirst(const ViewMetric& m, std::int64_t target, Fr
         if (t.level >= kFinestTriangleLevel)
             return;
         const LatticePoint p = splitPoint(t);
-        const DiamondId id = idOf(p);
-        if (id == kNoDiamond)
-            return;
+        DiamondId id = idOf(p);
+        if (id == kNoDiamond) {
+            // a detail cell whose block is not resident: materialised only if it may be split
+            if (blocks_.recordOf(p.x / kLatticePerCell, p.y / kLatticePerCell) < 0 ||
+                isGridVertex(p) || recordPriority(m, diamondAt(p)) <= options_.tau_pixels)
+                return;
+            id = resolve(p);
+            if (id == kNoDiamond) {
+                // the pool refused: its bound still counts (popping it refuses again and stops)
+                best_first_.push_back({recordPriority(m, diamondAt(p)), t});
+                std::push_heap(best_first_.begin(), best_first_.end(), by_priority);
+                return;
+            }
+        } else if (id >= kPooled) {
+            block_used_[(id - kPooled) / kDiamondsPerBlock] = use_epoch_;
+        }
         if (active(id)) {
             const auto halves = splitTriangle(t);
             self(self, halves[0]);
@@ -53,7 +67,8 @@ double Tessellator::refineBestFirst(const ViewMetric& m, std::int64_t target, Fr
             push(push, entry.second);
             continue;
         }
-        if (!activate(diamondAt(p), idOf(p), false, stats)) {
+        const DiamondId id = resolve(p);
+        if (id == kNoDiamond || !activate(diamondAt(p), id, false, stats)) {
             if (refused_by_cap_) { // still wanted: it bounds the error
                 best_first_.push_back(entry);
                 std::push_heap(best_first_.begin(), best_first_.end(), by_priority);
@@ -72,7 +87,8 @@ double Tessellator::refineBestFirst(const ViewMetric& m, std::int64_t target, Fr
 }
 
 void Tessellator::followCap(const FrameStats& stats) {
-    // The cap wins over tau: raise the threshold a step whenever it refused a split, lower it a
+    // The cap wins over tau: raise the threshold a step whenever it (or the block pool) refused a
+    // split, lower it a
     // step towards tau when the mesh has room to spare. Each change re-examines every candidate
     // against the new threshold (spread over the next kRekeyFrames frames by spreadRekey), so
     // the mesh settles on the one a top-down build at the threshold makes: the best for its
@@ -87,7 +103,8 @@ void Tessellator::followCap(const FrameStats& stats) {
         next = threshold_ * std::clamp(ratio, kCapStepUp, kCapStepMax);
     } else if (
         threshold_ > options_.tau_pixels &&
-        static_cast<double>(triangles_) < kCapLow * static_cast<double>(options_.max_triangles))
+        static_cast<double>(triangles_) < kCapLow * static_cast<double>(options_.max_triangles) &&
+        frame_ > last_pool_refusal_ + kPoolQuietFrames) // nor the pool lately
         next = std::max(options_.tau_pixels, threshold_ / kCapStepDown);
     if (next == threshold_ || !rekey_.empty()) // one move at a time
         return;

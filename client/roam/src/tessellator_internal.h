@@ -17,6 +17,9 @@ inline constexpr std::int32_t kBaseVertices = kTileVertices * kTileVertices;
 /// Diamond ids per block: the cell's 16 x 16 half-open lattice (position 0 is a grid vertex).
 inline constexpr std::uint32_t kDiamondsPerBlock = kLatticePerCell * kLatticePerCell;
 inline constexpr double kInfinity = std::numeric_limits<double>::infinity();
+inline constexpr float kNoCap = std::numeric_limits<float>::infinity();
+/// Local position (x and y) of a cell's centre diamond, whose triangles are its base triangles.
+inline constexpr std::int32_t kCentreLocal = kLatticePerCell / 2;
 
 // How split/merge follows a binding triangle cap (Tessellator::followCap): a rebuild fills this
 // share of the cap; the threshold rises by kCapStepUp (up to kCapStepMax when many splits were
@@ -27,6 +30,8 @@ inline constexpr double kCapLow = 0.8;
 inline constexpr double kCapStepUp = 1.1;
 inline constexpr double kCapStepMax = 2.0;
 inline constexpr double kCapStepDown = 1.05;
+/// The threshold falls only this many frames after the block pool last refused a split.
+inline constexpr std::uint64_t kPoolQuietFrames = 30;
 /// A threshold move re-examines the candidates keyed against the old one over this many frames.
 inline constexpr std::size_t kRekeyFrames = 8;
 inline constexpr std::size_t kRekeyAtOnce = 16384; ///< or at least this many per frame

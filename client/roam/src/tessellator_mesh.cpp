@@ -57,15 +57,17 @@ bool Tessellator::hasActiveChild(const Diamond& d) const {
     return false;
 }
 
-bool Tessellator::canActivate(const Diamond& d, DiamondId id) const {
-    if (id == kNoDiamond)
-        return false;
+bool Tessellator::parentsActive(const Diamond& d) const {
     if (d.level == 0)
         return true;
     for (const LatticePoint a : apexes(d))
         if (insideMap(a) && !active(idOf(a)))
             return false;
     return true;
+}
+
+bool Tessellator::canActivate(const Diamond& d, DiamondId id) const {
+    return id != kNoDiamond && parentsActive(d);
 }
 
 void Tessellator::splitTriangles(const Diamond& d, bool split, bool forced) {
@@ -122,14 +124,23 @@ bool Tessellator::activate(const Diamond& d, DiamondId id, bool forced, FrameSta
         for (const LatticePoint a : apexes(d)) {
             if (!insideMap(a))
                 continue;
-            const DiamondId parent = idOf(a);
+            const DiamondId parent = resolve(a);
             if (parent == kNoDiamond) {
-                ++missing_block_refusals_;
+                // no record is a bug (must stay 0); else the pool refused (counted there)
+                if (blocks_.recordOf(a.x / kLatticePerCell, a.y / kLatticePerCell) < 0)
+                    ++missing_block_refusals_;
                 return false;
             }
             if (!active(parent) && !activate(diamondAt(a), parent, true, stats))
                 return false;
         }
+    }
+    // splitting a cell's centre draws the cell with its block's vertices
+    if (isCentre(id)) {
+        const std::int32_t record = static_cast<std::int32_t>(id - grid_count_);
+        if (blocks_.blockOfRecord(record) < 0 && materialise(record) < 0)
+            return false; // the pool refused
+        block_used_[idx(blocks_.blockOfRecord(record))] = use_epoch_;
     }
     const std::int64_t gain = splitGain(d);
     if (triangles_ + gain > options_.max_triangles) {
@@ -137,7 +148,9 @@ bool Tessellator::activate(const Diamond& d, DiamondId id, bool forced, FrameSta
         refused_by_cap_ = true;
         return false;
     }
-    state_[id] |= kActive;
+    state(id) |= kActive;
+    if (id >= kPooled)
+        block_used_[(id - kPooled) / kDiamondsPerBlock] = use_epoch_;
     triangles_ += gain;
     ++stats.splits;
     if (forced)
@@ -150,7 +163,7 @@ bool Tessellator::activate(const Diamond& d, DiamondId id, bool forced, FrameSta
         for (const LatticePoint a : apexes(d))
             if (insideMap(a)) {
                 const DiamondId parent = idOf(a);
-                if ((state_[parent] & kMergeCandidate) != 0)
+                if ((state(parent) & kMergeCandidate) != 0)
                     clearCandidate(parent);
             }
     setCandidate(id, kMergeCandidate);
@@ -161,8 +174,11 @@ bool Tessellator::activate(const Diamond& d, DiamondId id, bool forced, FrameSta
         const LatticePoint c = kids[idx(i)];
         if (!insideMap(c))
             continue;
-        const DiamondId child = idOf(c);
-        if (child != kNoDiamond && !active(child) && canActivate(diamondAt(c), child)) {
+        const Diamond cd = diamondAt(c);
+        DiamondId child = idOf(c);
+        if (child == kNoDiamond && parentsActive(cd))
+            child = resolve(c); // a virtual cell's block, hanging from the real cell before it
+        if (child != kNoDiamond && !active(child) && canActivate(cd, child)) {
             setCandidate(child, kSplitCandidate);
             due_.push_back(child);
         }
@@ -171,7 +187,7 @@ bool Tessellator::activate(const Diamond& d, DiamondId id, bool forced, FrameSta
 }
 
 void Tessellator::deactivate(const Diamond& d, DiamondId id, FrameStats& stats) {
-    state_[id] = static_cast<std::uint8_t>(state_[id] & ~kActive);
+    state(id) = static_cast<std::uint8_t>(state(id) & ~kActive);
     triangles_ -= splitGain(d);
     ++stats.merges;
     if (!bookkeeping_)
@@ -184,7 +200,7 @@ void Tessellator::deactivate(const Diamond& d, DiamondId id, FrameStats& stats) 
     const int n = children(d, kids);
     for (int i = 0; i < n; ++i) {
         const DiamondId child = idOf(kids[idx(i)]);
-        if (child != kNoDiamond && (state_[child] & kSplitCandidate) != 0)
+        if (child != kNoDiamond && (state(child) & kSplitCandidate) != 0)
             clearCandidate(child);
     }
     if (d.level == 0)
@@ -323,9 +339,9 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
         // a snapshot may bring another world (size, spacing): start from its spec
         if (tiles_.empty() || !(terrain_->spec() == spec_))
             adoptSpec();
-        blocks_.reset(*terrain_);
+        blocks_.reset(*terrain_); // records only: no block resident
         resizeDiamondState();
-        std::fill(state_.begin(), state_.end(), std::uint8_t{0});
+        clearAllState();
         heap_.clear();
         watched_.clear();
         rekey_.clear();
@@ -334,7 +350,7 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
             rebuildTileBlocks(tile);
             ++vertex_version_[idx(tile)];
         }
-        recomputeBounds(0, 0, max_x_, max_y_, false);
+        recomputeBounds({}, true, false);
         needs_rebuild_ = true;
         return;
     }
@@ -347,42 +363,38 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
             merged_.push_back(r);
     mergeOverlapping(merged_);
     for (const CellRect& r : merged_) {
-        // blocks about to go: coarsen everything that refines into them first
+        // records about to go: coarsen everything that refines into them first
         removing_.clear();
         blocks_.plan(*terrain_, r, removing_);
-        for (const std::int32_t block : removing_) {
-            const DetailBlocks::CellXY c = blocks_.cellOf(block);
-            for (std::uint32_t local = 1; local < kDiamondsPerBlock; ++local)
-                deactivateSubtree(
-                    {c.x * kLatticePerCell + static_cast<std::int32_t>(local % kLatticePerCell),
-                     c.y * kLatticePerCell + static_cast<std::int32_t>(local / kLatticePerCell)},
-                    ignored);
-            for (std::uint32_t local = 0; local < kDiamondsPerBlock; ++local) {
-                const DiamondId id =
-                    grid_count_ + static_cast<DiamondId>(block) * kDiamondsPerBlock + local;
-                clearCandidate(id);
-                state_[id] = 0;
+        for (const std::int32_t record : removing_) {
+            const DetailBlocks::CellXY c = blocks_.recordCell(record);
+            // every split diamond of the cell descends from its centre
+            deactivateSubtree(
+                {c.x * kLatticePerCell + kCentreLocal, c.y * kLatticePerCell + kCentreLocal},
+                ignored);
+            const std::int32_t block = blocks_.blockOfRecord(record);
+            if (block >= 0) {
+                for (std::uint32_t local = 1; local < kDiamondsPerBlock; ++local)
+                    deactivateSubtree(
+                        {c.x * kLatticePerCell + static_cast<std::int32_t>(local % kLatticePerCell),
+                         c.y * kLatticePerCell +
+                             static_cast<std::int32_t>(local / kLatticePerCell)},
+                        ignored);
+                for (std::uint32_t local = 0; local < kDiamondsPerBlock; ++local)
+                    clearCandidate(pooledId(block, local));
+                // its slot in the tile's vertex array becomes a hole: nothing refers to it now
+                evict(block);
             }
-            // its slot in the tile's vertex array becomes a hole: nothing refers to it now
-            detachBlock(block);
+            clearCandidate(centreId(record));
+            state(centreId(record)) = 0;
         }
         removed_.clear();
         added_.clear();
         blocks_.update(*terrain_, r, removed_, added_);
         resizeDiamondState();
-        for (const std::int32_t block : added_)
-            for (std::uint32_t local = 0; local < kDiamondsPerBlock; ++local) {
-                const DiamondId id =
-                    grid_count_ + static_cast<DiamondId>(block) * kDiamondsPerBlock + local;
-                state_[id] = 0;
-                delta_[id] = -1.0f; // no bound yet: recomputeBounds must see it change
-            }
-        // a new block takes a hole or goes at the end of its tile's vertex array, so no index
-        // in the tile's list moves and nothing is re-emitted; the tile's vertices changed
-        for (const std::int32_t block : added_) {
-            attachBlock(block);
-            if (const std::int32_t tile = tileOfCell(blocks_.cellOf(block)); tile >= 0)
-                ++vertex_version_[idx(tile)];
+        for (const std::int32_t record : added_) {
+            state(centreId(record)) = 0;
+            bounds(centreId(record)).delta = -1.0f; // no bound yet: recomputeBounds must see it
         }
         // heights moved in these tiles
         for (std::int32_t ty = std::max(0, r.y0) / kTileCells;
@@ -391,9 +403,7 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
                  tx <= std::min(r.x1 / kTileCells, spec_.tilesX() - 1); ++tx)
                 ++vertex_version_[idx(ty * spec_.tilesX() + tx)];
         recomputed_.clear();
-        recomputeBounds(
-            (r.x0 - 1) * kLatticePerCell, (r.y0 - 1) * kLatticePerCell,
-            (r.x1 + 2) * kLatticePerCell, (r.y1 + 2) * kLatticePerCell, true);
+        recomputeBounds(r, false, true);
         if (initialized_ && !needs_rebuild_) {
             for (const DiamondId id : recomputed_)
                 refreshCandidate(id);

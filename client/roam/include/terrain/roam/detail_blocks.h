@@ -5,16 +5,19 @@
 // A cell with a detail patch is refined into the patch's 17 x 17 grid (evaluateGrid). Its
 // neighbours must follow part of the way, or the finer triangles along the shared edge would
 // leave T-junctions: a forced split crosses into the neighbour and needs vertices inside it. So
-// every cell within kDetailHaloCells (Chebyshev distance) of a patch cell gets a block too, whose
-// vertices lie exactly on the base triangles. Cells far from any patch have no block and are
-// never refined below their two base triangles, which represent them exactly.
+// every cell within kDetailHaloCells (Chebyshev distance) of a patch cell is a detail cell too,
+// whose vertices lie exactly on the base triangles. Cells far from any patch are never refined
+// below their two base triangles, which represent them exactly.
 //
-// A block is 17 x 17 vertex heights in fine units of 1/16 quantum: base triangles are exact at
-// 1/16 of a cell in those units, and so is a patch on its straight borders (linear precision of
-// the spline), so a patch and a halo neighbour agree bit for bit along their shared edge, and
-// the halo's triangles lie exactly on the true surface. Block slots are reused after removal so
-// that the ids of unchanged blocks, and the tessellation that refers to them, survive an op. Pure:
-// no GL, no I/O.
+// Two grains, so that memory follows the view and not the world:
+//  - a record per detail cell, eager and small: whether it has a patch, and true bounds on its
+//    vertices and on how far any triangle on them is from the true surface (cellError), enough
+//    for the cell's coarsest diamond to carry a true bound without the cell's heights;
+//  - a block of 17 x 17 vertex heights, materialised only while the tessellator refines the
+//    cell (a pool of slots, reused), in fine units of 1/16 quantum: base triangles are exact at
+//    1/16 of a cell in those units, and so is a patch on its straight borders (linear precision
+//    of the spline), so a patch and a halo neighbour agree bit for bit along their shared edge.
+// Pure: no GL, no I/O.
 
 #include <terrain/terrain.h>
 
@@ -36,44 +39,87 @@ inline constexpr std::int64_t kFineUnitsPerQuantum = 16;
 
 class DetailBlocks {
   public:
-    /// Blocks for every patch cell of `t` and its halo.
+    struct CellXY {
+        std::int32_t x = -1;
+        std::int32_t y = -1;
+    };
+
+    /// Records for every patch cell of `t` and its halo; no block.
     void reset(const Terrain& t);
 
-    /// After an op changed the surface of `cells`: re-derives which cells need blocks around them
-    /// (patches appear and disappear) and recomputes the heights of every block in `cells`.
-    /// Slots freed and taken are appended to `removed` / `added`.
+    /// The records update() would drop for the same change (the tessellator coarsens them first
+    /// and releases their blocks).
+    void plan(const Terrain& t, CellRect cells, std::vector<std::int32_t>& removing) const;
+
+    /// After an op changed the surface of `cells`: re-derives which cells are detail cells around
+    /// them (patches appear and disappear), refreshes the records in `cells` and refills their
+    /// blocks. Records dropped and made are appended to `removed` / `added`; a dropped record's
+    /// block must have been released.
     void update(
         const Terrain& t,
         CellRect cells,
         std::vector<std::int32_t>& removed,
         std::vector<std::int32_t>& added);
 
-    /// The slots update() would free for the same change (the tessellator coarsens them first).
-    void plan(const Terrain& t, CellRect cells, std::vector<std::int32_t>& removing) const;
+    // ---- records (eager) ----
 
     /// Cells covered, one virtual column and row past the padded grid included (see reset());
-    /// a virtual cell's block holds no heights (zeros), only a place for diamond state.
+    /// a virtual cell has no heights, only a place for diamond state.
     std::int32_t cellsX() const { return cells_x_; }
     std::int32_t cellsY() const { return cells_y_; }
-    /// Block slot of a padded cell, or -1.
-    std::int32_t blockOf(std::int32_t cx, std::int32_t cy) const {
+    /// Record of a cell, or -1 for a cell that is never refined.
+    std::int32_t recordOf(std::int32_t cx, std::int32_t cy) const {
         if (cx < 0 || cy < 0 || cx >= cells_x_ || cy >= cells_y_)
             return -1;
-        return block_of_cell_
-            [static_cast<std::size_t>(cy) * static_cast<std::size_t>(cells_x_) +
-             static_cast<std::size_t>(cx)];
+        return record_of_cell_[cellIndex(cx, cy)];
     }
-    /// Number of slots (some may be free); slot ids are below this.
-    std::int32_t capacity() const { return static_cast<std::int32_t>(cell_of_block_.size()); }
+    /// Record slots (some may be free); record ids are below this.
+    std::int32_t recordCapacity() const { return static_cast<std::int32_t>(records_.size()); }
+    std::int32_t recordCount() const {
+        return recordCapacity() - static_cast<std::int32_t>(free_records_.size());
+    }
+    bool recordInUse(std::int32_t r) const { return records_[idx(r)].cell.x >= 0; }
+    CellXY recordCell(std::int32_t r) const { return records_[idx(r)].cell; }
+    bool hasPatch(std::int32_t r) const { return records_[idx(r)].has_patch; }
+    /// Bound (fine units) on the distance between the true surface of the cell and any triangle
+    /// of the finest level on its vertices (0 without a patch: they lie on it).
+    float finestError(std::int32_t r) const { return records_[idx(r)].finest_error; }
+    /// Bound (fine units) on the distance between the true surface of the cell and any triangle
+    /// inside one of its base triangles whose vertices are block vertices: both lie within the
+    /// patch's deviation bound of the base triangle (the vertices plus half a unit of rounding).
+    /// Rounded up to a float.
+    float cellError(std::int32_t r) const { return records_[idx(r)].cell_error; }
+    /// Range (fine units) of the cell's block vertices and of its true surface, rounded outward
+    /// to floats (the records of a large world are many; these only need to be bounds).
+    float vertexLo(std::int32_t r) const { return records_[idx(r)].lo; }
+    float vertexHi(std::int32_t r) const { return records_[idx(r)].hi; }
+    /// The record's block, or -1 while it has none.
+    std::int32_t blockOfRecord(std::int32_t r) const { return records_[idx(r)].block; }
+
+    // ---- blocks (materialised on demand) ----
+
+    /// Gives record `r` a block filled from `t` and returns it.
+    std::int32_t materialise(const Terrain& t, std::int32_t r);
+    /// Frees the block (its record stays).
+    void release(std::int32_t block);
+    /// Block of a cell, or -1.
+    std::int32_t blockOf(std::int32_t cx, std::int32_t cy) const {
+        const std::int32_t r = recordOf(cx, cy);
+        return r < 0 ? -1 : records_[idx(r)].block;
+    }
+    /// Block slots (some may be free); block ids are below this.
+    std::int32_t capacity() const { return static_cast<std::int32_t>(record_of_block_.size()); }
     std::int32_t count() const { return capacity() - static_cast<std::int32_t>(free_.size()); }
-    bool inUse(std::int32_t block) const { return cell_of_block_[idx(block)].x >= 0; }
+    bool inUse(std::int32_t block) const { return record_of_block_[idx(block)] >= 0; }
+    std::int32_t recordOfBlock(std::int32_t block) const { return record_of_block_[idx(block)]; }
     /// The block's cell (x, y); (-1, -1) for a free slot.
-    struct CellXY {
-        std::int32_t x = -1;
-        std::int32_t y = -1;
-    };
-    CellXY cellOf(std::int32_t block) const { return cell_of_block_[idx(block)]; }
-    bool hasPatch(std::int32_t block) const { return has_patch_[idx(block)] != 0; }
+    CellXY cellOf(std::int32_t block) const {
+        const std::int32_t r = record_of_block_[idx(block)];
+        return r < 0 ? CellXY{} : records_[idx(r)].cell;
+    }
+    float finestErrorOfBlock(std::int32_t block) const {
+        return records_[idx(record_of_block_[idx(block)])].finest_error;
+    }
     /// Height (fine units) of vertex (k, l), k along x, both 0..16.
     std::int64_t height(std::int32_t block, std::int32_t k, std::int32_t l) const {
         return heights_[idx(block) * kBlockVertices + static_cast<std::size_t>(l * kBlockSide + k)];
@@ -81,26 +127,39 @@ class DetailBlocks {
     std::span<const std::int64_t> heights(std::int32_t block) const {
         return {heights_.data() + idx(block) * kBlockVertices, kBlockVertices};
     }
-    /// Bound (fine units) on the distance between the true surface of the block's cell and any
-    /// triangle of the finest level on its vertices (0 without a patch: they lie on it).
-    float finestError(std::int32_t block) const { return finest_error_[idx(block)]; }
+    std::size_t memoryBytes() const;
 
   private:
+    struct Record { // 32 bytes: one per detail cell of the world
+        CellXY cell;
+        std::int32_t block = -1;
+        float finest_error = 0.0f;
+        float cell_error = 0.0f;
+        float lo = 0.0f;
+        float hi = 0.0f;
+        bool has_patch = false;
+    };
+
     static std::size_t idx(std::int32_t v) { return static_cast<std::size_t>(v); }
-    bool needsBlock(const Terrain& t, std::int32_t cx, std::int32_t cy) const;
+    std::size_t cellIndex(std::int32_t cx, std::int32_t cy) const {
+        return static_cast<std::size_t>(cy) * static_cast<std::size_t>(cells_x_) +
+               static_cast<std::size_t>(cx);
+    }
+    bool needsRecord(const Terrain& t, std::int32_t cx, std::int32_t cy) const;
     CellRect aroundChange(CellRect cells) const;
-    std::int32_t take(std::int32_t cx, std::int32_t cy);
-    void release(std::int32_t block);
+    std::int32_t takeRecord(std::int32_t cx, std::int32_t cy);
+    void dropRecord(std::int32_t r);
+    void summarise(const Terrain& t, std::int32_t r);
     void fill(const Terrain& t, std::int32_t block);
 
     std::int32_t cells_x_ = 0;
     std::int32_t cells_y_ = 0;
-    std::vector<std::int32_t> block_of_cell_;
-    std::vector<CellXY> cell_of_block_;
+    std::vector<std::int32_t> record_of_cell_;
+    std::vector<Record> records_;
+    std::vector<std::int32_t> free_records_;
+    std::vector<std::int32_t> record_of_block_;
     std::vector<std::int32_t> free_;
     std::vector<std::int64_t> heights_;
-    std::vector<float> finest_error_;
-    std::vector<std::uint8_t> has_patch_;
 };
 
 } // namespace terrain::roam

@@ -28,8 +28,20 @@
 // build at the threshold makes, which is the best mesh for its count, with no periodic rebuild;
 // FrameStats::error_bound_pixels reports the threshold reached.
 //
+// Detail below the base grid is modelled only where the view refines it. Every detail cell's
+// coarsest diamond (its centre, whose triangles are the cell's base triangles) is eager, with a
+// conservative bound from the cell's record (DetailBlocks::cellError: 2 x the patch's deviation
+// bound, over the cell and its four edge neighbours), so the grid's priorities stay true upper
+// bounds without any heights below the grid. Splitting a centre materialises the cell's block:
+// its 17 x 17 heights and its 255 finer diamonds, whose nested bounds depend only on the heights
+// of the cell and its left and lower neighbours (border diamonds belong to the cell on their +x /
+// +y side), and are clamped to the cell's conservative bound (both are true bounds), which keeps
+// them nested under the centre. Blocks live in a bounded pool: a block no diamond refers to is
+// evicted when the pool needs its slot (clock order, never one used in the current frame); a
+// split that needs a block when every slot is in use is refused like the triangle cap.
+//
 // Output per tile: a TileMesh of indices into the tile's vertex array, which is the 65 x 65 base
-// grid followed by one 17 x 17 block per detail cell of the tile (tileVertex()).
+// grid followed by one 17 x 17 block per resident detail block of the tile (tileVertex()).
 // Pure: no GL, no clocks, no I/O. Single-threaded.
 
 #include <terrain/roam/camera.h>
@@ -52,6 +64,9 @@ struct TessellatorOptions {
     TessellationMode mode = TessellationMode::kSplitMerge;
     /// Triangle cap (the pool): splits beyond it are refused.
     std::int64_t max_triangles = 4'000'000;
+    /// Detail blocks resident at once (about 6.7 KB each with their diamond state); a split
+    /// that needs one more while all are in use is refused like the triangle cap.
+    std::int32_t max_detail_blocks = 32768;
     /// Splits + merges per frame in kSplitMerge; the rest waits for the next frame.
     std::int64_t work_budget = 1'000'000;
     /// An eye jump longer than this rebuilds top-down; 0 means 8 tiles.
@@ -66,8 +81,11 @@ struct FrameStats {
     std::int64_t splits = 0;
     std::int64_t forced_splits = 0; ///< of which forced by a finer split
     std::int64_t merges = 0;
-    std::int64_t evaluations = 0; ///< priorities computed
-    std::int64_t refused_by_cap = 0;
+    std::int64_t evaluations = 0;     ///< priorities computed
+    std::int64_t refused_by_cap = 0;  ///< splits refused by the triangle cap or the block pool
+    std::int64_t refused_by_pool = 0; ///< of which for want of a detail block
+    std::int64_t blocks_materialised = 0;
+    std::int64_t blocks_evicted = 0;
     std::int64_t triangles = 0;         ///< emitted, all tiles
     std::int64_t visible_triangles = 0; ///< in tiles that intersect the frustum
     std::int64_t index_bytes_written = 0;
@@ -81,8 +99,8 @@ struct FrameStats {
 };
 
 /// A tile's vertex array: the (kTileCells + 1)^2 base grid first, row by row, then one
-/// kBlockSide^2 block per detail cell, in the order the blocks came; a block that goes leaves a
-/// hole (unreferenced vertices, standing in for the tile's first vertex) for the next one.
+/// kBlockSide^2 block per resident detail block, in the order the blocks came; a block that goes
+/// leaves a hole (unreferenced vertices, standing in for the tile's first vertex) for the next.
 inline constexpr std::int32_t kTileBaseVertices = (kTileCells + 1) * (kTileCells + 1);
 
 /// A tile vertex: lattice position (1/16 cell) and height in fine units (1/16 quantum).
@@ -128,8 +146,16 @@ class Tessellator {
     template <class Visit> void forEachLeaf(Visit&& visit) const;
 
     std::int64_t triangleCount() const { return triangles_; }
+    /// Detail blocks resident now.
     std::int32_t blockCount() const { return blocks_.count(); }
-    /// Bytes of per-diamond state, blocks and index lists.
+    /// Resident blocks that cannot be evicted now (some diamond refers to them); O(pool).
+    std::int32_t pinnedBlockCount() const;
+    /// Detail cells (eager records), resident or not.
+    std::int32_t detailCellCount() const { return blocks_.recordCount(); }
+    /// Materialises every detail cell's block, ignoring the pool's limit (tests: compares the
+    /// lazy bounds with bounds built for everything at once).
+    void materialiseAll();
+    /// Bytes of per-diamond state, records, blocks and index lists.
     std::size_t memoryBytes() const;
     /// Diamonds split since construction that needed a block no cell had (must stay 0).
     std::int64_t missingBlockRefusals() const { return missing_block_refusals_; }
@@ -141,45 +167,105 @@ class Tessellator {
     double metresPerFineUnit() const { return metres_per_fine_; }
 
   private:
+    /// Ids: grid vertices, then one centre per detail record (eager, below kPooled); from
+    /// kPooled, 256 per block slot (the cell's half-open 16 x 16 lattice; local 0 is a grid vertex
+    /// and the centre's local position is unused).
     using DiamondId = std::uint32_t;
     static constexpr DiamondId kNoDiamond = 0xffffffffu;
+    static constexpr DiamondId kPooled = CandidateHeap::kPooledIds;
     static constexpr std::uint8_t kActive = 1;
     static constexpr std::uint8_t kSplitCandidate = 2;
     static constexpr std::uint8_t kMergeCandidate = 4;
     static constexpr std::uint8_t kWatched = 8;
     static std::size_t idx(std::int64_t v) { return static_cast<std::size_t>(v); }
 
-    // the id space: grid vertices first, then 256 per block slot (half-open 16 x 16 cell lattice)
+    struct Bounds {
+        float delta = 0.0f; ///< metres, rounded up
+        float zlo = 0.0f;   ///< metres, rounded down
+        float zhi = 0.0f;   ///< metres, rounded up
+    };
     void adoptSpec();
     bool insideMap(LatticePoint p) const {
         return p.x >= 0 && p.y >= 0 && p.x <= max_x_ && p.y <= max_y_;
     }
+    /// kNoDiamond for a point of a detail cell whose block is not resident.
     DiamondId idOf(LatticePoint p) const;
+    /// idOf, materialising the cell's block if it has a record and none (kNoDiamond if the pool
+    /// refuses); marks the block used this frame.
+    DiamondId resolve(LatticePoint p);
     LatticePoint pointOf(DiamondId id) const;
     std::int64_t heightAt(LatticePoint p) const;
-    bool active(DiamondId id) const { return id != kNoDiamond && (state_[id] & kActive) != 0; }
+    std::uint8_t& state(DiamondId id) {
+        return id < kPooled ? state_[id] : pooled_state_[id - kPooled];
+    }
+    std::uint8_t state(DiamondId id) const {
+        return id < kPooled ? state_[id] : pooled_state_[id - kPooled];
+    }
+    Bounds& bounds(DiamondId id) {
+        return id < kPooled ? bounds_[id] : pooled_bounds_[id - kPooled];
+    }
+    const Bounds& bounds(DiamondId id) const {
+        return id < kPooled ? bounds_[id] : pooled_bounds_[id - kPooled];
+    }
+    bool active(DiamondId id) const { return id != kNoDiamond && (state(id) & kActive) != 0; }
+    bool isCentre(DiamondId id) const { return id >= grid_count_ && id < kPooled; }
+    DiamondId centreId(std::int32_t record) const {
+        return grid_count_ + static_cast<DiamondId>(record);
+    }
+    DiamondId pooledId(std::int32_t block, std::uint32_t local) const {
+        return kPooled + static_cast<DiamondId>(block) * (kLatticePerCell * kLatticePerCell) +
+               local;
+    }
     void resizeDiamondState();
+    void clearAllState();
+
+    // the block pool (tessellator_pool.cpp)
+    /// Gives `record` a resident block with its bounds (evicting one if the pool is full);
+    /// -1 if every slot is in use.
+    std::int32_t materialise(std::int32_t record);
+    bool pinned(std::int32_t block) const;
+    bool evictOne();
+    void evict(std::int32_t block);
+    /// The triangle cap or the pool refused a split this frame.
+    void refuse(bool pool);
 
     // bounds
-    /// Both return whether the diamond's bounds changed.
-    bool computeBounds(const Diamond& d, DiamondId id);
+    /// All return whether the diamond's bounds changed; `cap` (metres) clamps a pooled
+    /// diamond's delta to its cells' conservative bound.
+    bool computeBounds(const Diamond& d, DiamondId id, float cap);
     /// computeBounds for a diamond strictly inside `block`'s cell, from the block directly.
-    bool computeBlockBounds(const Diamond& d, DiamondId id, std::int32_t block);
+    bool computeBlockBounds(const Diamond& d, DiamondId id, std::int32_t block, float cap);
+    bool computeCentreBounds(std::int32_t record);
     bool storeBounds(DiamondId id, float delta, float zlo, float zhi);
     bool finishBounds(
-        DiamondId id, std::int64_t own_lo, std::int64_t own_hi, double delta, double lo, double hi);
-    /// Bounds of every diamond whose subtree reaches the lattice rectangle, finest level first;
-    /// with `collect`, the ids of those whose bounds changed go to recomputed_ (candidates to
-    /// refresh).
-    void recomputeBounds(
-        std::int32_t lx0, std::int32_t ly0, std::int32_t lx1, std::int32_t ly1, bool collect);
+        DiamondId id,
+        std::int64_t own_lo,
+        std::int64_t own_hi,
+        double delta,
+        double lo,
+        double hi,
+        float cap);
+    /// Conservative bound (metres) of a detail cell (0 for a cell without a record).
+    float cellCap(std::int32_t cx, std::int32_t cy) const;
+    /// Bounds of every diamond of `blocks` (resident), finest level first; the interiors of
+    /// their left and lower neighbours come from those blocks or, where not resident, from
+    /// transient ones. With `collect`, ids whose bounds changed go to recomputed_.
+    void boundBlocks(std::span<const std::int32_t> blocks, bool collect);
+    /// Bounds after the surface of `cells` changed (everything when `all`): resident blocks that
+    /// depend on them, centres, then the grid, finest level first; with `collect`, the ids of
+    /// those whose bounds changed go to recomputed_ (candidates to refresh).
+    void recomputeBounds(CellRect cells, bool all, bool collect);
     Box boxOf(const Diamond& d, DiamondId id) const;
     double priority(const ViewMetric& m, const Diamond& d, DiamondId id) const;
+    /// An upper bound on priority() for a diamond whose block is not resident, from its cells'
+    /// records (no heights needed).
+    double recordPriority(const ViewMetric& m, const Diamond& d) const;
     double priorityAnyDirection(const ViewMetric& m, const Diamond& d, DiamondId id) const;
-    double childBounds(LatticePoint c, double& zlo, double& zhi) const;
+    double childBounds(LatticePoint c, double& zlo, double& zhi, float& cap) const;
 
     // mesh
     bool canActivate(const Diamond& d, DiamondId id) const;
+    bool parentsActive(const Diamond& d) const;
     bool activate(const Diamond& d, DiamondId id, bool forced, FrameStats& stats);
     void deactivate(const Diamond& d, DiamondId id, FrameStats& stats);
     void deactivateSubtree(LatticePoint p, FrameStats& stats);
@@ -228,11 +314,27 @@ class Tessellator {
     std::uint32_t grid_count_ = 0;
     DetailBlocks blocks_;
 
-    // per diamond
-    std::vector<float> delta_; ///< metres, rounded up
-    std::vector<float> zlo_;   ///< metres, rounded down
-    std::vector<float> zhi_;   ///< metres, rounded up
+    // per diamond: eager ids, and pooled ones (by block slot)
+    std::vector<Bounds> bounds_;
     std::vector<std::uint8_t> state_;
+    std::vector<Bounds> pooled_bounds_;
+    std::vector<float> pooled_cap_; ///< nested cap (metres) the pooled bound was clamped to
+    std::vector<std::uint8_t> pooled_state_;
+
+    // the block pool
+    std::vector<std::uint64_t> block_used_; ///< per block slot: epoch it was last used in
+    std::vector<std::int32_t> transient_;   ///< blocks made for one bounds pass only
+    std::vector<std::int32_t> pass_;
+    std::size_t clock_hand_ = 0;
+    std::uint64_t frame_ = 0;
+    /// Blocks used in the current epoch are never evicted (ids of them may be held on the
+    /// stack); a frame starts one, and so does a best-first pass (nothing is held then).
+    std::uint64_t use_epoch_ = 0;
+    std::uint64_t last_pool_refusal_ = 0;               ///< frame
+    std::uint64_t pool_full_epoch_ = ~std::uint64_t{0}; ///< epoch no slot could be freed in
+    std::int64_t pool_refusals_ = 0;                    ///< since construction
+    std::int64_t materialised_ = 0;
+    std::int64_t evicted_ = 0;
 
     // per tile
     std::vector<TileMesh> tiles_;
