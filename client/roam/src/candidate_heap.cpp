@@ -6,6 +6,8 @@ namespace terrain::roam {
 
 void CandidateHeap::resizeIds(std::size_t eager, std::size_t pooled) {
     position_.resize(eager, -1);
+    if (pooled > pooled_position_.capacity()) // grow by an eighth: pools are large
+        pooled_position_.reserve(pooled + pooled_position_.size() / 8);
     pooled_position_.resize(pooled, -1);
 }
 

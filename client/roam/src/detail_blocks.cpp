@@ -59,6 +59,8 @@ void DetailBlocks::reset(const Terrain& t) {
                     needed[cellIndex(x, y)] = 1;
         }
     }
+    // a large world has many records: no growth slack (ops add a few at a time later)
+    records_.reserve(static_cast<std::size_t>(std::count(needed.begin(), needed.end(), 1)));
     for (std::int32_t y = 0; y < cells_y_; ++y)
         for (std::int32_t x = 0; x < cells_x_; ++x)
             if (needed[cellIndex(x, y)] != 0)
@@ -190,6 +192,9 @@ std::int32_t DetailBlocks::materialise(const Terrain& t, std::int32_t r) {
     } else {
         block = capacity();
         record_of_block_.push_back(-1);
+        // grow by an eighth, not double: the pool may be most of the client's memory
+        if (heights_.size() + kBlockVertices > heights_.capacity())
+            heights_.reserve(heights_.size() + kBlockVertices + heights_.size() / 8);
         heights_.resize(heights_.size() + kBlockVertices);
     }
     record_of_block_[idx(block)] = r;

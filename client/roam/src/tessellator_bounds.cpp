@@ -161,6 +161,14 @@ void Tessellator::resizeDiamondState() {
     const std::size_t pooled = static_cast<std::size_t>(blocks_.capacity()) * kDiamondsPerBlock;
     // ids are uint32 in two ranges of 2^31 (kNoDiamond reserved): far beyond memory
     TERRAIN_ASSERT(eager < kPooled && pooled < kNoDiamond - kPooled);
+    // the pooled arrays grow by an eighth, not double: the pool may be most of the memory
+    const auto grow = [pooled](auto& v) {
+        if (pooled > v.capacity())
+            v.reserve(pooled + v.size() / 8);
+    };
+    grow(pooled_bounds_);
+    grow(pooled_cap_);
+    grow(pooled_state_);
     bounds_.resize(eager);
     state_.resize(eager, 0);
     pooled_bounds_.resize(pooled);
