@@ -252,6 +252,7 @@ struct Settings {
     int frames = 600;
     int error_every = 50;
     roam::ScreenErrorOptions error_options{3, 0.5};
+    std::int32_t max_detail_blocks = roam::TessellatorOptions{}.max_detail_blocks;
 };
 
 /// Flies the whole flight on a fresh tessellator. The timed pass measures nothing else: an error
@@ -272,6 +273,7 @@ Run runFlight(
     roam::TessellatorOptions options;
     options.tau_pixels = tau;
     options.mode = mode;
+    options.max_detail_blocks = s.max_detail_blocks;
     const auto built = Clock::now();
     roam::Tessellator tess(terrain, options);
     r.build_ms = msSince(built);
@@ -436,13 +438,19 @@ Json runJson(const Run& r) {
         toJson(overFrames(r, [](const Frame& f) { return f.stats.forced_splits; }));
     j["merges"] = toJson(overFrames(r, [](const Frame& f) { return f.stats.merges; }));
     j["evaluations"] = toJson(overFrames(r, [](const Frame& f) { return f.stats.evaluations; }));
-    std::int64_t exhausted = 0, rebuilt = 0, refused = 0;
+    std::int64_t exhausted = 0, rebuilt = 0, refused = 0, refused_pool = 0;
+    double bound_max = 0.0;
     for (std::size_t i = 1; i < r.frames.size(); ++i) {
         exhausted += r.frames[i].stats.budget_exhausted ? 1 : 0;
         rebuilt += r.frames[i].stats.rebuilt ? 1 : 0;
     }
-    for (const Frame& f : r.frames)
+    for (const Frame& f : r.frames) {
         refused += f.stats.refused_by_cap;
+        refused_pool += f.stats.refused_by_pool;
+        bound_max = std::max(bound_max, f.stats.error_bound_pixels);
+    }
+    j["refused_by_pool_total"] = refused_pool;
+    j["error_bound_px_max"] = bound_max; // tau, or what the cap or the block pool forced
     j["frames_budget_exhausted"] = exhausted;
     j["frames_rebuilt_after_first"] = rebuilt;
     j["refused_by_cap_total"] = refused;
@@ -657,6 +665,10 @@ int main(int argc, char** argv) {
            "measureScreenError: samples per cell of edge length")
         ->check(CLI::PositiveNumber);
     app.add_flag("--quick", quick, "smoke run: 120 frames, tau = 1 px only");
+    app.add_option(
+           "--max-blocks", settings.max_detail_blocks,
+           "detail blocks resident at once (the tessellator's pool)")
+        ->check(CLI::PositiveNumber);
     int craters = 0;
     app.add_option(
            "--craters", craters,

@@ -64,7 +64,7 @@ struct TessellatorOptions {
     TessellationMode mode = TessellationMode::kSplitMerge;
     /// Triangle cap (the pool): splits beyond it are refused.
     std::int64_t max_triangles = 4'000'000;
-    /// Detail blocks resident at once (about 6.7 KB each with their diamond state); a split
+    /// Detail blocks resident at once (about 7.7 KB each with their diamond state); a split
     /// that needs one more while all are in use is refused like the triangle cap.
     std::int32_t max_detail_blocks = 32768;
     /// Splits + merges per frame in kSplitMerge; the rest waits for the next frame.
