@@ -256,6 +256,58 @@ TEST(RoamMesh, ConformsAndMeetsTauOnHillsWithCraters) {
     }
 }
 
+TEST(RoamMesh, ACellsErrorBoundsEveryTriangleOnItsBlock) {
+    // DetailBlocks::cellError is what lets a cell's coarse diamonds carry true bounds without
+    // its heights: every triangle of every level inside the cell, on the block's rounded
+    // vertices, must be within it of the patch
+    const Terrain t = cratered(7, 40);
+    roam::DetailBlocks blocks;
+    blocks.reset(t);
+    std::int64_t checked = 0;
+    double tightest = 1e9; // smallest margin seen, fine units
+    for (std::int32_t r = 0; r < blocks.recordCapacity(); r += 7) {
+        if (!blocks.recordInUse(r) || !blocks.hasPatch(r))
+            continue;
+        const auto cell = blocks.recordCell(r);
+        const DetailPatch* patch = t.findPatch(cell.x, cell.y);
+        ASSERT_NE(patch, nullptr);
+        const std::int32_t b = blocks.materialise(t, r);
+        const double bound = blocks.cellError(r);
+        const roam::LatticePoint o{cell.x * 16, cell.y * 16};
+        const roam::Diamond centre = roam::diamondAt({o.x + 8, o.y + 8});
+        std::vector<roam::Triangle> stack;
+        for (const roam::LatticePoint a : roam::apexes(centre))
+            stack.push_back(roam::triangleOf(centre, a));
+        while (!stack.empty()) {
+            const roam::Triangle tri = stack.back();
+            stack.pop_back();
+            if (tri.level < roam::kFinestTriangleLevel)
+                for (const roam::Triangle& h : roam::splitTriangle(tri))
+                    stack.push_back(h);
+            const std::array<roam::LatticePoint, 3> v = {tri.apex, tri.left, tri.right};
+            std::array<double, 3> z{};
+            for (std::size_t i = 0; i < 3; ++i)
+                z[i] = static_cast<double>(blocks.height(b, v[i].x - o.x, v[i].y - o.y));
+            for (int i = 0; i <= 4; ++i)
+                for (int j = 0; i + j <= 4; ++j) {
+                    const double l0 = i / 4.0, l1 = j / 4.0, l2 = 1.0 - l0 - l1;
+                    const double x = l0 * v[0].x + l1 * v[1].x + l2 * v[2].x - o.x;
+                    const double y = l0 * v[0].y + l1 * v[1].y + l2 * v[2].y - o.y;
+                    const double surface = 16.0 * patchHeight(*patch, x / 16.0, y / 16.0);
+                    const double plane = l0 * z[0] + l1 * z[1] + l2 * z[2];
+                    const double err = std::abs(surface - plane);
+                    ASSERT_LE(err, bound + 1e-6)
+                        << "cell " << cell.x << "," << cell.y << " level " << tri.level;
+                    tightest = std::min(tightest, bound - err);
+                    ++checked;
+                }
+        }
+        blocks.release(b);
+    }
+    EXPECT_GT(checked, 100000);
+    EXPECT_GE(tightest, 0.0);
+}
+
 /// Every diamond of every detail cell of `t` (their centres included), in cell order.
 template <class Visit> void forEachDetailDiamond(const Terrain& t, Visit&& visit) {
     for (std::int32_t cy = 0; cy < t.spec().paddedHeight(); ++cy)
@@ -621,6 +673,39 @@ TEST(RoamMesh, ACraterAmongCratersRewritesOnlyItsOwnTriangles) {
         fresh.update(c);
     tess.update(c);
     EXPECT_EQ(leaves(tess), leaves(fresh));
+}
+
+TEST(RoamMesh, BlocksOutOfReachAreReleasedWhileThePoolHasRoom) {
+    // memory follows the view: after the eye leaves a cratered area, the blocks it refined go
+    // within the idle time plus a sweep of the pool, and coming back rebuilds the same mesh
+    const Terrain t = cratered(7, 40);
+    TessellatorOptions o;
+    o.detail_block_idle_frames = 10;
+    Tessellator tess(t, o);
+    std::mt19937_64 rng(3);
+    const Camera near_craters = randomCamera(t, rng);
+    tess.update(near_craters);
+    const std::int32_t resident = tess.blockCount();
+    ASSERT_GT(resident, 100);
+    const LeafSet before = leaves(tess);
+    // looking straight up from high above: nothing below the base grid is needed
+    Camera away = near_craters;
+    away.eye.z += 3000.0;
+    away.forward = {0.0, 0.0, 1.0};
+    away.up = {0.0, 1.0, 0.0};
+    std::int64_t evicted = 0;
+    const int frames = 10 + 2 + (resident + 511) / 512 + 1;
+    for (int f = 0; f < frames; ++f)
+        evicted += tess.update(away).blocks_evicted;
+    EXPECT_EQ(tess.pinnedBlockCount(), 0);
+    EXPECT_EQ(tess.blockCount(), 0) << "of " << resident;
+    EXPECT_EQ(evicted, resident);
+    expectConforming(tess, t.spec());
+    expectIndexListsMatchMesh(tess);
+    for (int f = 0; f < 3; ++f)
+        tess.update(near_craters);
+    EXPECT_EQ(leaves(tess), before);
+    expectIndexListsMatchMesh(tess);
 }
 
 // Every vertex's height by lattice position and the origin of the block it belongs to (the

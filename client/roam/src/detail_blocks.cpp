@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 
 namespace terrain::roam {
@@ -24,6 +25,44 @@ float roundedDown(std::int64_t v) {
     if (static_cast<std::int64_t>(f) > v)
         f = std::nextafter(f, -std::numeric_limits<float>::infinity());
     return f;
+}
+
+/// Bound (controls, i.e. sixths of a quantum, per cell^2) on the norm of the patch's Hessian.
+/// Its second derivatives are splines whose coefficients are the controls' differences, scaled
+/// by the knot spacing of the clamped cubic {0,0,0,0, 1/2, 1,1,1,1}, and a spline stays within
+/// its coefficients' range; a symmetric 2 x 2 matrix's norm is at most max(|f_uu|, |f_vv|) +
+/// |f_uv| (Gershgorin).
+std::int64_t hessianBound(const DetailPatch& p) {
+    // first derivative: 3 (c[i+1] - c[i]) / (t[i+4] - t[i+1]); second: 2 (d[i+1] - d[i]) /
+    // (t'[i+3] - t'[i+1]) on the derivative's knots {0,0,0, 1/2, 1,1,1}
+    constexpr std::array<std::int64_t, 4> kFirst = {6, 3, 3, 6};
+    constexpr std::array<std::int64_t, 3> kSecond = {4, 2, 4};
+    const auto second = [&](auto control) {
+        std::array<std::int64_t, 4> d{};
+        for (std::size_t k = 0; k < d.size(); ++k)
+            d[k] = kFirst[k] * (control(static_cast<int>(k) + 1) - control(static_cast<int>(k)));
+        std::int64_t worst = 0;
+        for (std::size_t k = 0; k < kSecond.size(); ++k)
+            worst = std::max(worst, std::abs(kSecond[k] * (d[k + 1] - d[k])));
+        return worst;
+    };
+    std::int64_t uu = 0;
+    std::int64_t vv = 0;
+    std::int64_t uv = 0;
+    for (int line = 0; line < bspline::kControls; ++line) {
+        uu = std::max(uu, second([&](int i) { return std::int64_t{p.at(i, line)}; }));
+        vv = std::max(vv, second([&](int j) { return std::int64_t{p.at(line, j)}; }));
+    }
+    for (int j = 0; j + 1 < bspline::kControls; ++j)
+        for (int i = 0; i + 1 < bspline::kControls; ++i) {
+            const std::int64_t twist =
+                std::int64_t{p.at(i + 1, j + 1)} - p.at(i, j + 1) - p.at(i + 1, j) + p.at(i, j);
+            uv = std::max(
+                uv, std::abs(
+                        kFirst[static_cast<std::size_t>(i)] * kFirst[static_cast<std::size_t>(j)] *
+                        twist));
+        }
+    return std::max(uu, vv) + uv;
 }
 
 std::int64_t exactBaseHeight(const CellCorners& c, Diagonal d, std::int32_t k, std::int32_t l) {
@@ -178,9 +217,17 @@ void DetailBlocks::summarise(const Terrain& t, std::int32_t r) {
     // vertices: within dev of the base, plus half a unit of rounding (1 rounded up)
     rec.lo = roundedDown(lo - dev - 1);
     rec.hi = roundedUp(hi + dev + 1);
-    // a triangle on vertices inside one base triangle is within dev + 1 of that (linear) base
-    // triangle, and the surface within dev
-    rec.cell_error = roundedUp(2 * dev + 1);
+    // Two bounds on how far a triangle on the block's (rounded) vertices, inside one of the
+    // cell's base triangles, is from the patch; the smaller is kept:
+    //  - it is within dev + 1 of that (linear) base triangle, and the surface within dev;
+    //  - linear interpolation on a triangle of circumradius R is within ||H|| R^2 / 2 of the
+    //    surface, and R^2 <= 1/2 cell^2 for a base triangle and all its descendants; the
+    //    rounded vertices add half a unit. Far smaller for a crater wider than a cell.
+    const std::int64_t curvature =
+        (hessianBound(*patch) * kFineUnitsPerQuantum + 4 * kControlScale - 1) /
+            (4 * kControlScale) +
+        1;
+    rec.cell_error = roundedUp(std::min(2 * dev + 1, curvature));
 }
 
 std::int32_t DetailBlocks::materialise(const Terrain& t, std::int32_t r) {

@@ -404,6 +404,7 @@ FrameStats Tessellator::update(const Camera& camera) {
     last_error_scale_ = m.errorScale();
     last_near_ = camera.near_plane;
     finishFrame(m, stats);
+    sweepIdleBlocks();
     stats.refused_by_pool = pool_refusals_ - pool_refusals;
     stats.blocks_materialised = materialised_ - materialised;
     stats.blocks_evicted = evicted_ - evicted;

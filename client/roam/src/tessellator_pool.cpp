@@ -73,6 +73,22 @@ bool Tessellator::evictOne() {
     return false;
 }
 
+void Tessellator::sweepIdleBlocks() {
+    // memory follows the view: a block out of reach goes after a while even when the pool has
+    // room. A slot is checked about every capacity / kIdleSweep frames, so an idle block goes
+    // between idle and idle + that many frames after its last use.
+    const auto idle = static_cast<std::uint64_t>(options_.detail_block_idle_frames);
+    const auto slots = static_cast<std::size_t>(blocks_.capacity());
+    if (idle == 0 || slots == 0)
+        return;
+    for (std::size_t step = 0; step < std::min(slots, kIdleSweep); ++step) {
+        const auto block = static_cast<std::int32_t>(idle_hand_ % slots);
+        idle_hand_ = (idle_hand_ + 1) % slots;
+        if (blocks_.inUse(block) && block_used_[idx(block)] + idle < use_epoch_ && !pinned(block))
+            evict(block);
+    }
+}
+
 std::int32_t Tessellator::materialise(std::int32_t record) {
     // once every slot was found in use, the rest of the frame is refused without a search
     if (blocks_.count() >= options_.max_detail_blocks &&

@@ -67,6 +67,9 @@ struct TessellatorOptions {
     /// Detail blocks resident at once (about 7.7 KB each with their diamond state); a split
     /// that needs one more while all are in use is refused like the triangle cap.
     std::int32_t max_detail_blocks = 32768;
+    /// A block no diamond refers to is released once unused for about this many frames (a
+    /// sweep looks at a few hundred slots per frame); 0: only when the pool needs its slot.
+    std::int32_t detail_block_idle_frames = 120;
     /// Splits + merges per frame in kSplitMerge; the rest waits for the next frame.
     std::int64_t work_budget = 1'000'000;
     /// An eye jump longer than this rebuilds top-down; 0 means 8 tiles.
@@ -225,6 +228,8 @@ class Tessellator {
     std::int32_t materialise(std::int32_t record);
     bool pinned(std::int32_t block) const;
     bool evictOne();
+    /// Releases blocks idle for options_.detail_block_idle_frames, a few slots per frame.
+    void sweepIdleBlocks();
     void evict(std::int32_t block);
     /// The triangle cap or the pool refused a split this frame.
     void refuse(bool pool);
@@ -326,6 +331,7 @@ class Tessellator {
     std::vector<std::int32_t> transient_;   ///< blocks made for one bounds pass only
     std::vector<std::int32_t> pass_;
     std::size_t clock_hand_ = 0;
+    std::size_t idle_hand_ = 0;
     std::uint64_t frame_ = 0;
     /// Blocks used in the current epoch are never evicted (ids of them may be held on the
     /// stack); a frame starts one, and so does a best-first pass (nothing is held then).
