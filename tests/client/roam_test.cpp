@@ -835,7 +835,9 @@ TEST(RoamMesh, ABattleFedOpByOpEqualsAFreshBuild) {
         tess.terrainChanged(std::span<const CellRect>(&effect->cells, 1), false);
         tess.update(c);
         ++craters;
-        if (shot < 12) { // (shot 8 straightens a patch one ring out; later ones cover it up)
+        // shot 8 straightens a patch one ring out (later ones cover it up); a fresh build with
+        // every block is the costly part, so only around it
+        if (shot == 0 || shot == 8 || shot == 11) {
             ASSERT_TRUE(verticesMatchAFreshBuild(tess, t))
                 << "shot " << shot << " left a vertex height stale";
         }

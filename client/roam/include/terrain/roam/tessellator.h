@@ -69,7 +69,7 @@ struct TessellatorOptions {
     std::int32_t max_detail_blocks = 32768;
     /// A block no diamond refers to is released once unused for about this many frames (a
     /// sweep looks at a few hundred slots per frame); 0: only when the pool needs its slot.
-    std::int32_t detail_block_idle_frames = 120;
+    std::int32_t detail_block_idle_frames = 600;
     /// Splits + merges per frame in kSplitMerge; the rest waits for the next frame.
     std::int64_t work_budget = 1'000'000;
     /// An eye jump longer than this rebuilds top-down; 0 means 8 tiles.
