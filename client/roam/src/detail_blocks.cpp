@@ -1,3 +1,5 @@
+#include "float_rounding.h"
+
 #include <terrain/assert.h>
 #include <terrain/fixed_point.h>
 #include <terrain/roam/detail_blocks.h>
@@ -13,18 +15,13 @@ namespace {
 
 static_assert(kFineUnitsPerQuantum == kBlockSide - 1, "fine units make 1/16-cell points exact");
 
+// fine units are far below 2^53: exact as doubles
 float roundedUp(std::int64_t v) {
-    float f = static_cast<float>(v);
-    if (static_cast<std::int64_t>(f) < v)
-        f = std::nextafter(f, std::numeric_limits<float>::infinity());
-    return f;
+    return detail::roundUp(static_cast<double>(v));
 }
 
 float roundedDown(std::int64_t v) {
-    float f = static_cast<float>(v);
-    if (static_cast<std::int64_t>(f) > v)
-        f = std::nextafter(f, -std::numeric_limits<float>::infinity());
-    return f;
+    return detail::roundDown(static_cast<double>(v));
 }
 
 /// Bound (controls, i.e. sixths of a quantum, per cell^2) on the norm of the patch's Hessian.

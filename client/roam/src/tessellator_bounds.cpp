@@ -1,5 +1,6 @@
 // The tessellator's diamond ids, vertex heights and nested error bounds.
 
+#include "float_rounding.h"
 #include "tessellator_internal.h"
 
 #include <terrain/assert.h>
@@ -16,20 +17,6 @@ namespace terrain::roam {
 using namespace detail;
 
 namespace {
-
-float roundUp(double v) {
-    float f = static_cast<float>(v);
-    if (static_cast<double>(f) < v)
-        f = std::nextafter(f, std::numeric_limits<float>::infinity());
-    return f;
-}
-
-float roundDown(double v) {
-    float f = static_cast<float>(v);
-    if (static_cast<double>(f) > v)
-        f = std::nextafter(f, -std::numeric_limits<float>::infinity());
-    return f;
-}
 
 /// Local positions (l * 16 + k) of the sub-cell diamonds of each level inside one cell; the
 /// level depends only on the position within the cell (cell origins are multiples of 16).
@@ -301,29 +288,29 @@ bool Tessellator::computeCentreBounds(std::int32_t record) {
     const DiamondId id = centreId(record);
     if (c.x > grid_w_ - 2 || c.y > grid_h_ - 2)
         return storeBounds(id, 0.0f, 0.0f, 0.0f); // a virtual cell's centre is off the map
-    float cap = cellCap(c.x, c.y);
-    double lo = blocks_.vertexLo(record);
-    double hi = blocks_.vertexHi(record);
-    constexpr std::array<std::array<std::int32_t, 2>, 8> kNeighbours = {
-        {{-1, -1}, {0, -1}, {1, -1}, {-1, 0}, {1, 0}, {-1, 1}, {0, 1}, {1, 1}}};
-    for (const auto& [dx, dy] : kNeighbours) {
-        const std::int32_t nx = c.x + dx;
-        const std::int32_t ny = c.y + dy;
-        if (nx < 0 || ny < 0 || nx > grid_w_ - 2 || ny > grid_h_ - 2)
-            continue; // no surface past the padded grid
-        cap = std::max(cap, cellCap(nx, ny));
-        if (const std::int32_t r = blocks_.recordOf(nx, ny); r >= 0) {
-            lo = std::min(lo, static_cast<double>(blocks_.vertexLo(r)));
-            hi = std::max(hi, static_cast<double>(blocks_.vertexHi(r)));
-        } else {
-            const CellCorners k = terrain_->corners(nx, ny);
-            lo = std::min(lo, cornerLo(k));
-            hi = std::max(hi, cornerHi(k));
-        }
-    }
-    const double widen = cap;
+    const WindowBound w = windowBound(c.x, c.y);
     return storeBounds(
-        id, cap, roundDown(lo * metres_per_fine_ - widen), roundUp(hi * metres_per_fine_ + widen));
+        id, w.cap, roundDown(w.lo * metres_per_fine_ - w.cap),
+        roundUp(w.hi * metres_per_fine_ + w.cap));
+}
+
+Tessellator::WindowBound Tessellator::windowBound(std::int32_t cx, std::int32_t cy) const {
+    WindowBound w;
+    for (std::int32_t y = cy - 1; y <= cy + 1; ++y)
+        for (std::int32_t x = cx - 1; x <= cx + 1; ++x) {
+            if (x < 0 || y < 0 || x > grid_w_ - 2 || y > grid_h_ - 2)
+                continue; // no surface past the padded grid
+            w.cap = std::max(w.cap, cellCap(x, y));
+            if (const std::int32_t r = blocks_.recordOf(x, y); r >= 0) {
+                w.lo = std::min(w.lo, static_cast<double>(blocks_.vertexLo(r)));
+                w.hi = std::max(w.hi, static_cast<double>(blocks_.vertexHi(r)));
+            } else {
+                const CellCorners k = terrain_->corners(x, y);
+                w.lo = std::min(w.lo, cornerLo(k));
+                w.hi = std::max(w.hi, cornerHi(k));
+            }
+        }
+    return w;
 }
 
 bool Tessellator::computeBounds(const Diamond& d, DiamondId id, float cap) {
@@ -531,29 +518,11 @@ double Tessellator::priority(const ViewMetric& m, const Diamond& d, DiamondId id
 double Tessellator::recordPriority(const ViewMetric& m, const Diamond& d) const {
     // the records of the cells its subtree reaches bound its delta and every vertex of its
     // subtree, so this is at least the priority its block would give
-    const std::int32_t cx = d.centre.x / kLatticePerCell;
-    const std::int32_t cy = d.centre.y / kLatticePerCell;
-    float cap = 0.0f;
-    double lo = kInfinity;
-    double hi = -kInfinity;
-    auto add = [&](std::int32_t x, std::int32_t y) {
-        const std::int32_t r = blocks_.recordOf(x, y);
-        if (r < 0) {
-            if (x < 0 || y < 0 || x > grid_w_ - 2 || y > grid_h_ - 2)
-                return;
-            const CellCorners c = terrain_->corners(x, y);
-            lo = std::min(lo, cornerLo(c));
-            hi = std::max(hi, cornerHi(c));
-            return;
-        }
-        cap = std::max(cap, cellCap(x, y));
-        lo = std::min(lo, static_cast<double>(blocks_.vertexLo(r)));
-        hi = std::max(hi, static_cast<double>(blocks_.vertexHi(r)));
-    };
     // its descendants reach at most the 3 x 3 cells around its cell (see computeCentreBounds)
-    for (std::int32_t y = cy - 1; y <= cy + 1; ++y)
-        for (std::int32_t x = cx - 1; x <= cx + 1; ++x)
-            add(x, y);
+    const WindowBound w = windowBound(d.centre.x / kLatticePerCell, d.centre.y / kLatticePerCell);
+    const float cap = w.cap;
+    const double lo = w.lo;
+    const double hi = w.hi;
     const std::int32_t reach = subtreeReach(d);
     const std::int32_t x0 = std::max(d.centre.x - reach, 0);
     const std::int32_t y0 = std::max(d.centre.y - reach, 0);

@@ -52,6 +52,7 @@
 #include <terrain/terrain.h>
 
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -252,6 +253,14 @@ class Tessellator {
         float cap);
     /// Conservative bound (metres) of a detail cell (0 for a cell without a record).
     float cellCap(std::int32_t cx, std::int32_t cy) const;
+    /// The largest cellCap and the vertex range (fine units) of the 3 x 3 cells around a cell,
+    /// those of the padded grid: everything a diamond of that cell can refine into.
+    struct WindowBound {
+        float cap = 0.0f;
+        double lo = std::numeric_limits<double>::infinity();
+        double hi = -std::numeric_limits<double>::infinity();
+    };
+    WindowBound windowBound(std::int32_t cx, std::int32_t cy) const;
     /// Bounds of every diamond of `blocks` (resident), finest level first; the interiors of
     /// their left and lower neighbours come from those blocks or, where not resident, from
     /// transient ones. With `collect`, ids whose bounds changed go to recomputed_.
