@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <png.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <cstdio>
@@ -78,15 +79,26 @@ std::string viewerCommand(const std::string& args) {
     return command;
 }
 
-/// Runs the viewer with `args` in a fresh Xvfb display.
+/// Runs the viewer with `args` in a fresh Xvfb display. The X authority file is ours (-f), so
+/// xvfb-run makes no temporary directory: with two runs at once, removing that directory failed
+/// now and then ("problem while cleaning up temporary directory", exit 5), which hid the
+/// viewer's own exit code.
 ProgramRun runViewer(const std::string& args) {
-    std::string command = "xvfb-run -a -s '-screen 0 1280x1024x24' ";
+    const fs::path auth_dir = fs::path(TERRAIN_TEST_OUTPUT_DIR) / "viewer_xauth";
+    fs::create_directories(auth_dir);
+    std::string auth_file = (auth_dir / "Xauthority.XXXXXX").string();
+    const int fd = mkstemp(auth_file.data());
+    if (fd < 0)
+        return ProgramRun{};
+    close(fd);
+    std::string command = "xvfb-run -a -f '" + auth_file + "' -s '-screen 0 1280x1024x24' ";
     command += viewerCommand(args);
     ProgramRun run = runCommand(command);
     // two xvfb-run -a started at once can pick the same display number; the loser says so
     for (int retry = 0; retry < 3 && run.output.find("Xvfb failed to start") != std::string::npos;
          ++retry)
         run = runCommand(command);
+    fs::remove(auth_file);
     return run;
 }
 
