@@ -89,7 +89,7 @@ ProgramRun runViewer(const std::string& args) {
     std::string auth_file = (auth_dir / "Xauthority.XXXXXX").string();
     const int fd = mkstemp(auth_file.data());
     if (fd < 0)
-        return ProgramRun{};
+        return ProgramRun{-1, "mkstemp failed for the X authority file " + auth_file};
     close(fd);
     std::string command = "xvfb-run -a -f '" + auth_file + "' -s '-screen 0 1280x1024x24' ";
     command += viewerCommand(args);
