@@ -100,14 +100,17 @@ Terrain cratered(std::uint64_t seed, int craters) {
 
 TEST(RoamCandidateHeap, PopsInKeyOrderThroughPushesReKeysAndRemovals) {
     roam::CandidateHeap heap;
-    heap.resizeIds(250, 250);                  // both id ranges: eager and pooled
+    heap.resizeIds(250, {100, 100, 100});      // every id range: eager and the pooled ones
     std::map<std::uint32_t, double> reference; // id -> key
     std::mt19937_64 rng(12);
-    std::uniform_int_distribution<std::uint32_t> any_id(0, 499);
+    std::uniform_int_distribution<std::uint32_t> any_id(0, 549);
     std::uniform_real_distribution<double> any_key(0.0, 100.0);
     for (int step = 0; step < 20000; ++step) {
         const std::uint32_t n = any_id(rng);
-        const std::uint32_t id = n < 250 ? n : roam::CandidateHeap::kPooledIds + (n - 250);
+        const std::uint32_t id = n < 250 ? n
+                                         : roam::CandidateHeap::kPooledIds +
+                                               roam::CandidateHeap::kRangeBase[(n - 250) / 100] +
+                                               (n - 250) % 100;
         if (step % 3 == 2 && heap.contains(id)) {
             heap.remove(id);
             reference.erase(id);
@@ -271,7 +274,8 @@ TEST(RoamMesh, ACellsErrorBoundsEveryTriangleOnItsBlock) {
         const auto cell = blocks.recordCell(r);
         const DetailPatch* patch = t.findPatch(cell.x, cell.y);
         ASSERT_NE(patch, nullptr);
-        const std::int32_t b = blocks.materialise(t, r);
+        std::array<std::int64_t, roam::kBlockVertices> heights{};
+        roam::fillCellHeights(t, cell.x, cell.y, heights);
         const double bound = blocks.cellError(r);
         const roam::LatticePoint o{cell.x * 16, cell.y * 16};
         const roam::Diamond centre = roam::diamondAt({o.x + 8, o.y + 8});
@@ -287,7 +291,8 @@ TEST(RoamMesh, ACellsErrorBoundsEveryTriangleOnItsBlock) {
             const std::array<roam::LatticePoint, 3> v = {tri.apex, tri.left, tri.right};
             std::array<double, 3> z{};
             for (std::size_t i = 0; i < 3; ++i)
-                z[i] = static_cast<double>(blocks.height(b, v[i].x - o.x, v[i].y - o.y));
+                z[i] = static_cast<double>(heights[static_cast<std::size_t>(
+                    (v[i].y - o.y) * roam::kBlockSide + (v[i].x - o.x))]);
             for (int i = 0; i <= 4; ++i)
                 for (int j = 0; i + j <= 4; ++j) {
                     const double l0 = i / 4.0, l1 = j / 4.0, l2 = 1.0 - l0 - l1;
@@ -302,7 +307,6 @@ TEST(RoamMesh, ACellsErrorBoundsEveryTriangleOnItsBlock) {
                     ++checked;
                 }
         }
-        blocks.release(b);
     }
     EXPECT_GT(checked, 100000);
     EXPECT_GE(tightest, 0.0);
@@ -709,21 +713,14 @@ TEST(RoamMesh, BlocksOutOfReachAreReleasedWhileThePoolHasRoom) {
 }
 
 // Every vertex's height by lattice position and the origin of the block it belongs to (the
-// grid's own: -1), as block slots may sit elsewhere in the arrays; a hole's vertices stand in
-// for the tile's first, with its height.
+// grid's own: -1), as a vertex on a cell border is in both cells' blocks and grains may sit
+// anywhere in the arrays; a hole's vertices stand in for the tile's first, with its height.
 std::map<std::array<std::int32_t, 4>, std::int64_t> vertexHeights(const Tessellator& s) {
     std::map<std::array<std::int32_t, 4>, std::int64_t> out;
     for (std::int32_t tile = 0; tile < s.tileCount(); ++tile)
         for (std::int32_t i = 0; i < s.tileVertexCount(tile); ++i) {
             const roam::TileVertex v = s.tileVertex(tile, static_cast<std::uint32_t>(i));
-            std::int32_t ox = -1;
-            std::int32_t oy = -1;
-            if (i >= roam::kTileBaseVertices && v.position.x % 16 + v.position.y % 16 != 0) {
-                const std::int32_t local = (i - roam::kTileBaseVertices) % roam::kBlockVertices;
-                ox = v.position.x - local % roam::kBlockSide;
-                oy = v.position.y - local / roam::kBlockSide;
-            }
-            out[{v.position.x, v.position.y, ox, oy}] = v.height;
+            out[{v.position.x, v.position.y, v.block_origin.x, v.block_origin.y}] = v.height;
         }
     return out;
 }

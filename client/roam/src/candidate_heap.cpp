@@ -4,11 +4,15 @@
 
 namespace terrain::roam {
 
-void CandidateHeap::resizeIds(std::size_t eager, std::size_t pooled) {
+void CandidateHeap::resizeIds(
+    std::size_t eager, const std::array<std::size_t, kPooledRanges>& pooled) {
     position_.resize(eager, -1);
-    if (pooled > pooled_position_.capacity()) // grow by an eighth: pools are large
-        pooled_position_.reserve(pooled + pooled_position_.size() / 8);
-    pooled_position_.resize(pooled, -1);
+    for (std::size_t r = 0; r < pooled.size(); ++r) {
+        auto& p = pooled_position_[r];
+        if (pooled[r] > p.capacity()) // grow by an eighth: pools are large
+            p.reserve(pooled[r] + p.size() / 8);
+        p.resize(pooled[r], -1);
+    }
 }
 
 void CandidateHeap::siftUp(std::size_t i) {
@@ -78,7 +82,8 @@ void CandidateHeap::clear() {
 void CandidateHeap::reset() {
     heap_.clear();
     position_.clear();
-    pooled_position_.clear();
+    for (auto& p : pooled_position_)
+        p.clear();
 }
 
 } // namespace terrain::roam

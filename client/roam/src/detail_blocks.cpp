@@ -79,7 +79,6 @@ void DetailBlocks::reset(const Terrain& t) {
     free_records_.clear();
     record_of_block_.clear();
     free_.clear();
-    heights_.clear();
     // every patch cell marks its halo, in cell order so record ids are deterministic
     std::vector<std::uint8_t> needed(record_of_cell_.size(), 0);
     for (std::int32_t tile = 0; tile < t.spec().tileCount(); ++tile) {
@@ -156,8 +155,6 @@ void DetailBlocks::update(
                 removed.push_back(r);
             } else if (r >= 0 && x >= cells.x0 && x <= cells.x1 && y >= cells.y0 && y <= cells.y1) {
                 summarise(t, r);
-                if (records_[idx(r)].block >= 0)
-                    fill(t, records_[idx(r)].block);
             }
         }
     }
@@ -227,7 +224,7 @@ void DetailBlocks::summarise(const Terrain& t, std::int32_t r) {
     rec.cell_error = roundedUp(std::min(2 * dev + 1, curvature));
 }
 
-std::int32_t DetailBlocks::materialise(const Terrain& t, std::int32_t r) {
+std::int32_t DetailBlocks::materialise(std::int32_t r) {
     TERRAIN_ASSERT(records_[idx(r)].block < 0);
     std::int32_t block = 0;
     if (!free_.empty()) {
@@ -236,14 +233,9 @@ std::int32_t DetailBlocks::materialise(const Terrain& t, std::int32_t r) {
     } else {
         block = capacity();
         record_of_block_.push_back(-1);
-        // grow by an eighth, not double: the pool may be most of the client's memory
-        if (heights_.size() + kBlockVertices > heights_.capacity())
-            heights_.reserve(heights_.size() + kBlockVertices + heights_.size() / 8);
-        heights_.resize(heights_.size() + kBlockVertices);
     }
     record_of_block_[idx(block)] = r;
     records_[idx(r)].block = block;
-    fill(t, block);
     return block;
 }
 
@@ -257,23 +249,24 @@ std::size_t DetailBlocks::memoryBytes() const {
     return record_of_cell_.capacity() * sizeof(std::int32_t) +
            records_.capacity() * sizeof(Record) +
            (free_records_.capacity() + record_of_block_.capacity() + free_.capacity()) *
-               sizeof(std::int32_t) +
-           heights_.capacity() * sizeof(std::int64_t);
+               sizeof(std::int32_t);
 }
 
-void DetailBlocks::fill(const Terrain& t, std::int32_t block) {
-    const CellXY c = cellOf(block);
-    std::int64_t* out = heights_.data() + idx(block) * kBlockVertices;
+void fillCellHeights(
+    const Terrain& t,
+    std::int32_t cx,
+    std::int32_t cy,
+    std::span<std::int64_t, kBlockVertices> out) {
     const std::int32_t last_x = t.spec().paddedWidth() - 2; // last cell of the padded grid
     const std::int32_t last_y = t.spec().paddedHeight() - 2;
-    if (c.x > last_x || c.y > last_y) {
+    if (cx > last_x || cy > last_y) {
         // a virtual cell past the grid: it carries diamond state only; the tessellator takes
         // heights on the map's last line from the real cell before it
-        std::fill(out, out + kBlockVertices, std::int64_t{0});
+        std::fill(out.begin(), out.end(), std::int64_t{0});
         return;
     }
-    const bool real = c.x < t.spec().cellsX() && c.y < t.spec().cellsY();
-    const DetailPatch* patch = real ? t.findPatch(c.x, c.y) : nullptr;
+    const bool real = cx < t.spec().cellsX() && cy < t.spec().cellsY();
+    const DetailPatch* patch = real ? t.findPatch(cx, cy) : nullptr;
     if (patch != nullptr) {
         std::array<std::int64_t, kPatchGridVertices> numerators{};
         gridNumerators(*patch, numerators);
@@ -281,11 +274,11 @@ void DetailBlocks::fill(const Terrain& t, std::int32_t block) {
             out[i] = roundDiv(numerators[i] * kFineUnitsPerQuantum, kGridDenominator);
         return;
     }
-    const CellCorners corners = t.corners(c.x, c.y);
-    const Diagonal d = cellDiagonal(c.x, c.y);
+    const CellCorners corners = t.corners(cx, cy);
+    const Diagonal d = cellDiagonal(cx, cy);
     for (std::int32_t l = 0; l < kBlockSide; ++l)
         for (std::int32_t k = 0; k < kBlockSide; ++k)
-            out[l * kBlockSide + k] = exactBaseHeight(corners, d, k, l);
+            out[static_cast<std::size_t>(l * kBlockSide + k)] = exactBaseHeight(corners, d, k, l);
 }
 
 } // namespace terrain::roam

@@ -35,18 +35,17 @@ void Tessellator::adoptSpec() {
     tiles_.resize(tiles);
     tile_visible_.assign(tiles, 0);
     vertex_version_.assign(tiles, 0);
-    tile_blocks_.clear();
-    tile_blocks_.resize(tiles);
+    tile_segments_.clear();
+    tile_segments_.resize(tiles);
     tile_holes_.clear();
     tile_holes_.resize(tiles);
+    tile_vertices_.assign(tiles, 0);
     bounds_.clear();
     state_.clear();
-    pooled_bounds_.clear();
-    pooled_cap_.clear();
-    pooled_state_.clear();
+    for (Grain& g : grains_)
+        g = Grain{};
+    block_chunks_.clear();
     heap_.reset();
-    block_local_.clear();
-    block_used_.clear();
     clock_hand_ = 0;
 }
 
@@ -149,7 +148,7 @@ void Tessellator::refineTopDown(
             return;
         }
     } else if (id >= kPooled) {
-        block_used_[(id - kPooled) / kDiamondsPerBlock] = use_epoch_;
+        markUsed(id);
     }
     if (!active(id)) {
         const Diamond d = diamondAt(p);
@@ -427,15 +426,29 @@ void Tessellator::setTau(double tau_pixels) {
     needs_rebuild_ = true;
 }
 
-std::size_t Tessellator::memoryBytes() const {
-    std::size_t bytes = (bounds_.capacity() + pooled_bounds_.capacity()) * sizeof(Bounds) +
-                        pooled_cap_.capacity() * sizeof(float) + state_.capacity() +
-                        pooled_state_.capacity() + heap_.memoryBytes() + blocks_.memoryBytes() +
-                        (block_local_.capacity() * sizeof(std::int32_t)) +
-                        block_used_.capacity() * sizeof(std::uint64_t);
+TessellatorMemory Tessellator::memory() const {
+    TessellatorMemory m;
+    m.grid = bounds_.capacity() * sizeof(Bounds) + state_.capacity();
+    m.records = blocks_.memoryBytes() + block_chunks_.capacity() * sizeof(block_chunks_[0]);
+    for (std::size_t g = 0; g < kGrains; ++g) {
+        const Grain& grain = grains_[g];
+        m.grains[g] = grain.bounds.capacity() * sizeof(Bounds) +
+                      grain.cap.capacity() * sizeof(float) + grain.state.capacity() +
+                      grain.heights.capacity() * sizeof(std::int64_t) +
+                      (grain.block.capacity() + grain.segment.capacity() + grain.free.capacity()) *
+                          sizeof(std::int32_t) +
+                      grain.used.capacity() * sizeof(std::uint64_t);
+    }
+    m.heap = heap_.memoryBytes();
     for (const TileMesh& t : tiles_)
-        bytes += t.memoryBytes();
-    return bytes;
+        m.meshes += t.memoryBytes();
+    for (std::size_t t = 0; t < tile_segments_.size(); ++t) {
+        m.meshes += tile_segments_[t].capacity() * sizeof(VertexSegment);
+        for (const auto& h : tile_holes_[t])
+            m.meshes += h.capacity() * sizeof(std::int32_t);
+    }
+    m.scratch = block_bounds_.memoryBytes();
+    return m;
 }
 
 } // namespace terrain::roam

@@ -18,24 +18,6 @@ using namespace detail;
 
 namespace {
 
-/// Local positions (l * 16 + k) of the sub-cell diamonds of each level inside one cell; the
-/// level depends only on the position within the cell (cell origins are multiples of 16).
-const std::array<std::vector<std::uint8_t>, kFinestTriangleLevel>& localPositionsByLevel() {
-    static const auto table = [] {
-        std::array<std::vector<std::uint8_t>, kFinestTriangleLevel> t;
-        for (std::int32_t l = 0; l < kLatticePerCell; ++l)
-            for (std::int32_t k = 0; k < kLatticePerCell; ++k) {
-                if (k == 0 && l == 0)
-                    continue;
-                const Diamond d = diamondAt({k, l});
-                t[static_cast<std::size_t>(d.level)].push_back(
-                    static_cast<std::uint8_t>(l * kLatticePerCell + k));
-            }
-        return t;
-    }();
-    return table;
-}
-
 std::int32_t halfOfLevel(int level) {
     const int t = level % 2 == 0 ? (18 - level) / 2 : (19 - level) / 2;
     return 1 << t;
@@ -68,19 +50,38 @@ Tessellator::DiamondId Tessellator::idOf(LatticePoint p) const {
     return pooledId(block, static_cast<std::uint32_t>(l * kLatticePerCell + k));
 }
 
+Tessellator::DiamondId Tessellator::pooledId(std::int32_t block, std::uint32_t local) const {
+    const int g = grainOf(
+        static_cast<std::int32_t>(local % kLatticePerCell),
+        static_cast<std::int32_t>(local / kLatticePerCell));
+    const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
+    if (chunk < 0)
+        return kNoDiamond;
+    return grainId(g, chunk, grainTables().diamond_slot[local]);
+}
+
 Tessellator::DiamondId Tessellator::resolve(LatticePoint p) {
     const DiamondId id = idOf(p);
     if (id != kNoDiamond) {
         if (id >= kPooled)
-            block_used_[(id - kPooled) / kDiamondsPerBlock] = use_epoch_;
+            markUsed(id);
         return id;
     }
     if (!insideMap(p) || isGridVertex(p))
         return kNoDiamond;
     const std::int32_t record = blocks_.recordOf(p.x / kLatticePerCell, p.y / kLatticePerCell);
-    if (record < 0 || materialise(record) < 0)
+    if (record < 0)
         return kNoDiamond;
-    return idOf(p);
+    std::int32_t block = blocks_.blockOfRecord(record);
+    if (block < 0 && (block = materialise(record)) < 0)
+        return kNoDiamond; // the pool refused
+    const int g = grainOf(p.x % kLatticePerCell, p.y % kLatticePerCell);
+    if (block_chunks_[idx(block)][static_cast<std::size_t>(g)] < 0)
+        materialiseGrain(block, g);
+    const DiamondId made = idOf(p);
+    if (made != kNoDiamond && made >= kPooled)
+        markUsed(made);
+    return made;
 }
 
 LatticePoint Tessellator::pointOf(DiamondId id) const {
@@ -95,9 +96,12 @@ LatticePoint Tessellator::pointOf(DiamondId id) const {
             blocks_.recordCell(static_cast<std::int32_t>(id - grid_count_));
         return {c.x * kLatticePerCell + kCentreLocal, c.y * kLatticePerCell + kCentreLocal};
     }
-    const DiamondId r = id - kPooled;
-    const auto block = static_cast<std::int32_t>(r / kDiamondsPerBlock);
-    const auto local = static_cast<std::int32_t>(r % kDiamondsPerBlock);
+    const int g = grainOfId(id);
+    const std::size_t slot = pooledSlot(id, g);
+    const auto size = static_cast<std::size_t>(kGrainDiamonds[static_cast<std::size_t>(g)]);
+    const std::int32_t block = grains_[static_cast<std::size_t>(g)].block[slot / size];
+    const std::int32_t local =
+        grainTables().diamond_local[static_cast<std::size_t>(g)][slot % size];
     const DetailBlocks::CellXY c = blocks_.cellOf(block);
     return {
         c.x * kLatticePerCell + local % kLatticePerCell,
@@ -105,65 +109,48 @@ LatticePoint Tessellator::pointOf(DiamondId id) const {
 }
 
 std::int64_t Tessellator::heightAt(LatticePoint p) const {
-    if (isGridVertex(p))
-        return static_cast<std::int64_t>(
-                   terrain_->sample(p.x / kLatticePerCell, p.y / kLatticePerCell)) *
-               kFineUnitsPerQuantum;
-    std::int32_t cx = p.x / kLatticePerCell;
-    std::int32_t cy = p.y / kLatticePerCell;
-    std::int32_t k = p.x % kLatticePerCell;
-    std::int32_t l = p.y % kLatticePerCell;
-    // a point on the map's last line belongs to the real cell before it (the virtual cells past
-    // the grid hold diamond state, not heights)
-    if (cx >= grid_w_ - 1) {
-        cx -= 1;
-        k += kLatticePerCell;
-    }
-    if (cy >= grid_h_ - 1) {
-        cy -= 1;
-        l += kLatticePerCell;
-    }
-    // on the real map's last line the surface is the real cell's (its patch border faces the
-    // padding and need not be straight), as drawn; the padding's cells start past it
-    if (k == 0 && cx == spec_.cellsX())
-        if (const std::int32_t b = blocks_.blockOf(cx - 1, cy); b >= 0)
-            return blocks_.height(b, kLatticePerCell, l);
-    if (l == 0 && cy == spec_.cellsY())
-        if (const std::int32_t b = blocks_.blockOf(cx, cy - 1); b >= 0)
-            return blocks_.height(b, k, kLatticePerCell);
-    if (const std::int32_t b = blocks_.blockOf(cx, cy); b >= 0)
-        return blocks_.height(b, k, l);
-    if (k == 0)
-        if (const std::int32_t b = blocks_.blockOf(cx - 1, cy); b >= 0)
-            return blocks_.height(b, kLatticePerCell, l);
-    if (l == 0)
-        if (const std::int32_t b = blocks_.blockOf(cx, cy - 1); b >= 0)
-            return blocks_.height(b, k, kLatticePerCell);
-    // a cell without a block: the base triangles, exact in fine units
-    return baseHeightScaled(terrain_->corners(cx, cy), cellDiagonal(cx, cy), k, l, kLatticePerCell);
+    // the eager diamonds (the grid's and the cells' centres) have grid vertices only; the
+    // vertices below the grid are the blocks' (BlockBounds)
+    TERRAIN_ASSERT(isGridVertex(p));
+    return static_cast<std::int64_t>(
+               terrain_->sample(p.x / kLatticePerCell, p.y / kLatticePerCell)) *
+           kFineUnitsPerQuantum;
 }
 
 void Tessellator::resizeDiamondState() {
     const std::size_t eager = grid_count_ + static_cast<std::size_t>(blocks_.recordCapacity());
-    const std::size_t pooled = static_cast<std::size_t>(blocks_.capacity()) * kDiamondsPerBlock;
-    // ids are uint32 in two ranges of 2^31 (kNoDiamond reserved): far beyond memory
-    TERRAIN_ASSERT(eager < kPooled && pooled < kNoDiamond - kPooled);
-    // the pooled arrays grow by an eighth, not double: the pool may be most of the memory
-    const auto grow = [pooled](auto& v) {
-        if (pooled > v.capacity())
-            v.reserve(pooled + v.size() / 8);
-    };
-    grow(pooled_bounds_);
-    grow(pooled_cap_);
-    grow(pooled_state_);
+    // ids are uint32: eager ones below 2^31 (kNoDiamond reserved), each grain in its range
+    TERRAIN_ASSERT(eager < kPooled);
+    const auto blocks = static_cast<std::size_t>(blocks_.capacity());
+    block_chunks_.resize(blocks, {-1, -1, -1});
+    std::array<std::size_t, kGrains> pooled{};
+    for (std::size_t g = 0; g < kGrains; ++g) {
+        Grain& grain = grains_[g];
+        if (g == 0 && grain.block.size() < blocks) { // grain 0's chunks are the blocks
+            grain.block.resize(blocks, -1);
+            grain.used.resize(blocks, 0);
+            grain.segment.resize(blocks, -1);
+        }
+        const std::size_t chunks = grain.block.size();
+        const std::size_t diamonds = chunks * static_cast<std::size_t>(kGrainDiamonds[g]);
+        const std::size_t vertices = chunks * static_cast<std::size_t>(kGrainVertices[g]);
+        // grow by an eighth, not double: the pool may be most of the memory
+        const auto grow = [](auto& v, std::size_t n) {
+            if (n > v.capacity())
+                v.reserve(n + v.size() / 8);
+            v.resize(n);
+        };
+        grow(grain.bounds, diamonds);
+        grow(grain.cap, diamonds);
+        grow(grain.state, diamonds);
+        grow(grain.heights, vertices);
+        pooled[g] = diamonds;
+        TERRAIN_ASSERT(
+            diamonds < CandidateHeap::kRangeBase[1] || (g == 2 && diamonds < (1u << 30)));
+    }
     bounds_.resize(eager);
     state_.resize(eager, 0);
-    pooled_bounds_.resize(pooled);
-    pooled_cap_.resize(pooled);
-    pooled_state_.resize(pooled, 0);
     heap_.resizeIds(eager, pooled);
-    block_local_.resize(idx(blocks_.capacity()), -1);
-    block_used_.resize(idx(blocks_.capacity()), 0);
 }
 
 // ---- error bounds -------------------------------------------------------------------------
@@ -182,7 +169,7 @@ double Tessellator::childBounds(LatticePoint c, double& zlo, double& zhi, float&
         zlo = std::min(zlo, static_cast<double>(b.zlo));
         zhi = std::max(zhi, static_cast<double>(b.zhi));
         if (id >= kPooled)
-            cap = std::max(cap, pooled_cap_[id - kPooled]);
+            cap = std::max(cap, pooledCap(id));
         return b.delta;
     }
     cap = std::max(cap, cellCap(c.x / kLatticePerCell, c.y / kLatticePerCell));
@@ -244,19 +231,12 @@ bool Tessellator::finishBounds(
     // widened by it still holds the surface over the diamond and every descendant's box. The cap
     // is nested too (the largest cellError of the diamond's cells and its children's caps), so a
     // parent's kept bound is never below a child's, even across cells.
+    TERRAIN_ASSERT(id < kPooled); // pooled diamonds are BlockBounds'
     const float kept = std::min(roundUp(delta), cap);
     const double widen = kept;
-    bool changed = false;
-    if (id >= kPooled) {
-        float& stored = pooled_cap_[id - kPooled];
-        changed = stored != cap;
-        stored = cap;
-    }
     return storeBounds(
-               id, kept,
-               roundDown(std::min(static_cast<double>(own_lo) * metres_per_fine_ - widen, lo)),
-               roundUp(std::max(static_cast<double>(own_hi) * metres_per_fine_ + widen, hi))) ||
-           changed;
+        id, kept, roundDown(std::min(static_cast<double>(own_lo) * metres_per_fine_ - widen, lo)),
+        roundUp(std::max(static_cast<double>(own_hi) * metres_per_fine_ + widen, hi)));
 }
 
 namespace {
@@ -342,97 +322,70 @@ bool Tessellator::computeBounds(const Diamond& d, DiamondId id, float cap) {
     return finishBounds(id, own.lo, own.hi, own.local + child, lo, hi, nested_cap);
 }
 
-bool Tessellator::computeBlockBounds(
-    const Diamond& d, DiamondId id, std::int32_t block, float cap) {
-    // computeBounds for a diamond strictly inside its cell (local x and y both > 0): its centre,
-    // hypotenuse ends, apexes and children all lie in the cell's 17 x 17 block, so heights come
-    // straight from the block and most child ids from the block's own id range. The same
-    // arithmetic as computeBounds, so the same floats (checked bit for bit over a battle when it
-    // was written; RoamMesh's fresh-build tests compare whole tessellators).
-    const std::int32_t ox = blocks_.cellOf(block).x * kLatticePerCell;
-    const std::int32_t oy = blocks_.cellOf(block).y * kLatticePerCell;
-    const OwnSpan own = ownSpan(
-        d, [&](LatticePoint p) { return blocks_.height(block, p.x - ox, p.y - oy); },
-        [](LatticePoint) { return true; }, metres_per_fine_);
-    double child = 0.0;
-    double lo = kInfinity;
-    double hi = -kInfinity;
-    float nested_cap = cap;
-    if (d.level == kMaxDiamondLevel) {
-        // both triangles lie in this cell
-        child = static_cast<double>(blocks_.finestErrorOfBlock(block)) * metres_per_fine_;
-    } else {
-        std::array<LatticePoint, 4> kids{};
-        const int n = children(d, kids);
-        const DiamondId base = pooledId(block, 0);
-        for (int i = 0; i < n; ++i) {
-            const LatticePoint c = kids[idx(i)];
-            const std::int32_t k = c.x - ox;
-            const std::int32_t l = c.y - oy;
-            if (k < kLatticePerCell && l < kLatticePerCell && (k | l) != 0) {
-                const std::size_t at =
-                    base - kPooled + static_cast<DiamondId>(l * kLatticePerCell + k);
-                const Bounds& b = pooled_bounds_[at];
-                lo = std::min(lo, static_cast<double>(b.zlo));
-                hi = std::max(hi, static_cast<double>(b.zhi));
-                child = std::max(child, static_cast<double>(b.delta));
-                nested_cap = std::max(nested_cap, pooled_cap_[at]);
-            } else {
-                child = std::max(child, childBounds(c, lo, hi, nested_cap));
-            }
+void Tessellator::boundBlocks(std::span<const std::int32_t> blocks, bool collect) {
+    // one BlockBounds pass per square of cells, so that a pass's scratch stays small however
+    // scattered the blocks are (a pass spans its cells' bounding box)
+    constexpr std::int32_t kSquare = 16;
+    pass_blocks_.assign(blocks.begin(), blocks.end());
+    const auto square = [&](std::int32_t b) {
+        const DetailBlocks::CellXY c = blocks_.cellOf(b);
+        return std::pair{c.y / kSquare, c.x / kSquare};
+    };
+    std::sort(pass_blocks_.begin(), pass_blocks_.end(), [&](std::int32_t a, std::int32_t b) {
+        return std::pair{square(a), a} < std::pair{square(b), b};
+    });
+    const BlockGeometry geometry{
+        metres_per_fine_, grid_w_, grid_h_, spec_.cellsX(), spec_.cellsY()};
+    bounded_cell_ = {}; // the scratch no longer holds a single block's pass
+    for (std::size_t first = 0; first < pass_blocks_.size();) {
+        std::size_t last = first;
+        pass_cells_.clear();
+        while (last < pass_blocks_.size() &&
+               square(pass_blocks_[last]) == square(pass_blocks_[first]))
+            pass_cells_.push_back(blocks_.cellOf(pass_blocks_[last++]));
+        block_bounds_.compute(*terrain_, blocks_, geometry, pass_cells_);
+        for (std::size_t i = first; i < last; ++i) {
+            const std::int32_t b = pass_blocks_[i];
+            unsigned mask = 0;
+            for (int g = 0; g < kGrains; ++g)
+                if (block_chunks_[idx(b)][static_cast<std::size_t>(g)] >= 0)
+                    mask |= 1u << g;
+            storeGrains(i - first, b, mask, collect);
         }
+        first = last;
     }
-    return finishBounds(id, own.lo, own.hi, own.local + child, lo, hi, nested_cap);
 }
 
-void Tessellator::boundBlocks(std::span<const std::int32_t> blocks, bool collect) {
-    // a block's diamonds nest into finer ones across its borders, and those into theirs, shrinking
-    // towards the block: its bounds depend on the 3 x 3 cells around it and no further
-    // (RoamMesh.LazyBoundsEqualBoundsBuiltForEveryCellAtOnce). Neighbours not resident are
-    // materialised for this pass only.
-    transient_.clear();
-    for (const std::int32_t block : blocks) {
-        const DetailBlocks::CellXY c = blocks_.cellOf(block);
-        for (std::int32_t y = c.y - 1; y <= c.y + 1; ++y)
-            for (std::int32_t x = c.x - 1; x <= c.x + 1; ++x)
-                if (const std::int32_t r = blocks_.recordOf(x, y);
-                    r >= 0 && blocks_.blockOfRecord(r) < 0)
-                    transient_.push_back(blocks_.materialise(*terrain_, r));
-    }
-    resizeDiamondState();
-    const auto& positions = localPositionsByLevel();
-    auto visit_block = [&](std::int32_t block, int level, bool keep) {
-        const DetailBlocks::CellXY c = blocks_.cellOf(block);
-        // a cell of the padded grid, not a virtual one past it
-        const bool inner_cell = c.x < grid_w_ - 1 && c.y < grid_h_ - 1;
-        const float cap = cellCap(c.x, c.y);
-        const float cap_left = std::max(cap, cellCap(c.x - 1, c.y));
-        const float cap_below = std::max(cap, cellCap(c.x, c.y - 1));
-        for (const std::uint8_t local : positions[idx(level)]) {
-            const std::int32_t k = local % kLatticePerCell;
-            const std::int32_t l = local / kLatticePerCell;
-            const LatticePoint p{c.x * kLatticePerCell + k, c.y * kLatticePerCell + l};
-            if (!insideMap(p))
-                continue; // a virtual cell's diamonds past the map's last line
-            const DiamondId id = pooledId(block, local);
-            // a border diamond's triangles lie in this cell and the one on its -x or -y side
-            const float c_cap = k == 0 ? cap_left : l == 0 ? cap_below : cap;
-            const bool changed = inner_cell && k != 0 && l != 0
-                                     ? computeBlockBounds(diamondAt(p), id, block, c_cap)
-                                     : computeBounds(diamondAt(p), id, c_cap);
-            if (keep && collect && changed)
-                recomputed_.push_back(id);
+void Tessellator::storeGrains(
+    std::size_t i, std::int32_t block, unsigned grain_mask, bool collect) {
+    const GrainTables& tables = grainTables();
+    block_bounds_.heights(i, heights_scratch_);
+    for (int g = 0; g < kGrains; ++g) {
+        if ((grain_mask & (1u << g)) == 0)
+            continue;
+        Grain& grain = grains_[static_cast<std::size_t>(g)];
+        const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
+        const auto diamonds = static_cast<std::size_t>(kGrainDiamonds[static_cast<std::size_t>(g)]);
+        const std::size_t base = idx(chunk) * diamonds;
+        for (std::size_t slot = 0; slot < diamonds; ++slot) {
+            const std::uint8_t local = tables.diamond_local[static_cast<std::size_t>(g)][slot];
+            if (g == 0 && (local == 0 || local == kCentreLocal * kLatticePerCell + kCentreLocal))
+                continue; // the grid vertex and the (eager) centre
+            const Bounds& b = block_bounds_.bounds(i, local);
+            const float cap = block_bounds_.cap(i, local);
+            Bounds& stored = grain.bounds[base + slot];
+            const bool changed = stored.delta != b.delta || stored.zlo != b.zlo ||
+                                 stored.zhi != b.zhi || grain.cap[base + slot] != cap;
+            stored = b;
+            grain.cap[base + slot] = cap;
+            if (changed && collect)
+                recomputed_.push_back(grainId(g, chunk, static_cast<std::uint32_t>(slot)));
         }
-    };
-    for (int level = kMaxDiamondLevel; level > kCellTriangleLevel; --level) {
-        for (const std::int32_t block : transient_)
-            visit_block(block, level, false);
-        for (const std::int32_t block : blocks)
-            visit_block(block, level, true);
+        const auto vertices = static_cast<std::size_t>(kGrainVertices[static_cast<std::size_t>(g)]);
+        for (std::size_t v = 0; v < vertices; ++v)
+            grain.heights[idx(chunk) * vertices + v] =
+                heights_scratch_[tables.vertex_local[static_cast<std::size_t>(g)][v]];
     }
-    for (const std::int32_t block : transient_)
-        blocks_.release(block);
-    transient_.clear();
 }
 
 void Tessellator::recomputeBounds(CellRect cells, bool all, bool collect) {

@@ -38,7 +38,7 @@ double Tessellator::refineBestFirst(const ViewMetric& m, std::int64_t target, Fr
                 return;
             }
         } else if (id >= kPooled) {
-            block_used_[(id - kPooled) / kDiamondsPerBlock] = use_epoch_;
+            markUsed(id);
         }
         if (active(id)) {
             const auto halves = splitTriangle(t);

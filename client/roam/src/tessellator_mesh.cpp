@@ -37,14 +37,25 @@ TileMesh::Indices Tessellator::indicesOf(const Triangle& t, std::int32_t tile) c
                 (v[i].x / kLatticePerCell - tx * kTileCells));
         return out;
     }
+    // a triangle finer than the base cells lies in one cell, and its vertices are in the grains
+    // of that cell's block its split diamonds keep resident (block_grains.h)
     const LatticePoint c3 = centroidTimes3(t);
     const std::int32_t cx = c3.x / (3 * kLatticePerCell);
     const std::int32_t cy = c3.y / (3 * kLatticePerCell);
     const std::int32_t block = blocks_.blockOf(cx, cy);
-    const std::int32_t base = kBaseVertices + block_local_[idx(block)] * kBlockVertices;
-    for (std::size_t i = 0; i < 3; ++i)
+    const GrainTables& tables = grainTables();
+    const auto& segments = tile_segments_[idx(tile)];
+    for (std::size_t i = 0; i < 3; ++i) {
+        const std::int32_t k = v[i].x - cx * kLatticePerCell;
+        const std::int32_t l = v[i].y - cy * kLatticePerCell;
+        const int g = grainOf(k, l);
+        const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
+        TERRAIN_ASSERT(chunk >= 0);
+        const std::int32_t segment = grains_[static_cast<std::size_t>(g)].segment[idx(chunk)];
         out[i] = static_cast<std::uint32_t>(
-            base + (v[i].y - cy * kLatticePerCell) * kBlockSide + (v[i].x - cx * kLatticePerCell));
+            kBaseVertices + segments[idx(segment)].offset +
+            tables.vertex_slot[static_cast<std::size_t>(l * kBlockSide + k)]);
+    }
     return out;
 }
 
@@ -140,7 +151,7 @@ bool Tessellator::activate(const Diamond& d, DiamondId id, bool forced, FrameSta
         const std::int32_t record = static_cast<std::int32_t>(id - grid_count_);
         if (blocks_.blockOfRecord(record) < 0 && materialise(record) < 0)
             return false; // the pool refused
-        block_used_[idx(blocks_.blockOfRecord(record))] = use_epoch_;
+        grains_[0].used[idx(blocks_.blockOfRecord(record))] = use_epoch_;
     }
     const std::int64_t gain = splitGain(d);
     if (triangles_ + gain > options_.max_triangles) {
@@ -150,7 +161,7 @@ bool Tessellator::activate(const Diamond& d, DiamondId id, bool forced, FrameSta
     }
     state(id) |= kActive;
     if (id >= kPooled)
-        block_used_[(id - kPooled) / kDiamondsPerBlock] = use_epoch_;
+        markUsed(id);
     triangles_ += gain;
     ++stats.splits;
     if (forced)
@@ -256,18 +267,11 @@ void Tessellator::emitTile(std::int32_t tile) {
         emitTriangle(triangleOf(root, a), tile, mesh);
 }
 
-void Tessellator::rebuildTileBlocks(std::int32_t tile) {
-    const std::int32_t tx = tile % spec_.tilesX();
-    const std::int32_t ty = tile / spec_.tilesX();
-    auto& list = tile_blocks_[idx(tile)];
-    list.clear();
-    tile_holes_[idx(tile)].clear();
-    for (std::int32_t cy = ty * kTileCells; cy < (ty + 1) * kTileCells; ++cy)
-        for (std::int32_t cx = tx * kTileCells; cx < (tx + 1) * kTileCells; ++cx)
-            if (const std::int32_t b = blocks_.blockOf(cx, cy); b >= 0) {
-                block_local_[idx(b)] = static_cast<std::int32_t>(list.size());
-                list.push_back(b);
-            }
+void Tessellator::clearTileVertices(std::int32_t tile) {
+    tile_segments_[idx(tile)].clear();
+    for (auto& holes : tile_holes_[idx(tile)])
+        holes.clear();
+    tile_vertices_[idx(tile)] = 0;
 }
 
 std::int32_t Tessellator::tileOfCell(DetailBlocks::CellXY c) const {
@@ -278,37 +282,45 @@ std::int32_t Tessellator::tileOfCell(DetailBlocks::CellXY c) const {
     return (c.y / kTileCells) * spec_.tilesX() + c.x / kTileCells;
 }
 
-void Tessellator::attachBlock(std::int32_t block) {
+void Tessellator::attachGrain(std::int32_t block, int g) {
+    Grain& grain = grains_[static_cast<std::size_t>(g)];
+    const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
     const std::int32_t tile = tileOfCell(blocks_.cellOf(block));
-    if (tile < 0)
+    if (tile < 0) {
+        grain.segment[idx(chunk)] = -1;
         return;
-    auto& list = tile_blocks_[idx(tile)];
-    auto& holes = tile_holes_[idx(tile)];
-    std::int32_t local = 0;
+    }
+    auto& segments = tile_segments_[idx(tile)];
+    auto& holes = tile_holes_[idx(tile)][static_cast<std::size_t>(g)];
+    std::int32_t segment = 0;
     if (!holes.empty()) {
-        local = holes.back();
+        segment = holes.back();
         holes.pop_back();
     } else {
-        local = static_cast<std::int32_t>(list.size());
-        list.push_back(-1);
+        segment = static_cast<std::int32_t>(segments.size());
+        segments.push_back({tile_vertices_[idx(tile)], -1, g});
+        tile_vertices_[idx(tile)] += kGrainVertices[static_cast<std::size_t>(g)];
     }
-    list[idx(local)] = block;
-    block_local_[idx(block)] = local;
+    segments[idx(segment)].chunk = chunk;
+    grain.segment[idx(chunk)] = segment;
+    ++vertex_version_[idx(tile)];
 }
 
-void Tessellator::detachBlock(std::int32_t block) {
+void Tessellator::detachGrain(std::int32_t block, int g) {
+    Grain& grain = grains_[static_cast<std::size_t>(g)];
+    const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
+    const std::int32_t segment = grain.segment[idx(chunk)];
+    grain.segment[idx(chunk)] = -1;
     const std::int32_t tile = tileOfCell(blocks_.cellOf(block));
-    if (tile < 0)
+    if (tile < 0 || segment < 0)
         return;
-    const std::int32_t local = block_local_[idx(block)];
-    tile_blocks_[idx(tile)][idx(local)] = -1;
-    tile_holes_[idx(tile)].push_back(local);
-    block_local_[idx(block)] = -1;
+    tile_segments_[idx(tile)][idx(segment)].chunk = -1;
+    tile_holes_[idx(tile)][static_cast<std::size_t>(g)].push_back(segment);
+    ++vertex_version_[idx(tile)];
 }
 
 std::int32_t Tessellator::tileVertexCount(std::int32_t tile) const {
-    return kBaseVertices +
-           static_cast<std::int32_t>(tile_blocks_[idx(tile)].size()) * kBlockVertices;
+    return kBaseVertices + tile_vertices_[idx(tile)];
 }
 
 TileVertex Tessellator::tileVertex(std::int32_t tile, std::uint32_t index) const {
@@ -320,26 +332,41 @@ TileVertex Tessellator::tileVertex(std::int32_t tile, std::uint32_t index) const
         const std::int32_t gy = ty * kTileCells + i / kTileVertices;
         return {
             {gx * kLatticePerCell, gy * kLatticePerCell},
-            static_cast<std::int64_t>(terrain_->sample(gx, gy)) * kFineUnitsPerQuantum};
+            static_cast<std::int64_t>(terrain_->sample(gx, gy)) * kFineUnitsPerQuantum,
+            {-1, -1}};
     }
     const std::int32_t r = i - kBaseVertices;
-    const std::int32_t block = tile_blocks_[idx(tile)][idx(r / kBlockVertices)];
-    if (block < 0) // a hole: no triangle refers to it; the tile's first vertex stands in
+    const auto& segments = tile_segments_[idx(tile)];
+    // segments are in offset order: the last one starting at or before r holds it
+    const auto it = std::upper_bound(
+        segments.begin(), segments.end(), r,
+        [](std::int32_t v, const VertexSegment& s) { return v < s.offset; });
+    const VertexSegment& seg = *(it - 1);
+    if (seg.chunk < 0) // a hole: no triangle refers to it; the tile's first vertex stands in
         return tileVertex(tile, 0);
-    const std::int32_t k = (r % kBlockVertices) % kBlockSide;
-    const std::int32_t l = (r % kBlockVertices) / kBlockSide;
-    const DetailBlocks::CellXY c = blocks_.cellOf(block);
-    return {{c.x * kLatticePerCell + k, c.y * kLatticePerCell + l}, blocks_.height(block, k, l)};
+    const auto g = static_cast<std::size_t>(seg.grain);
+    const auto slot = static_cast<std::size_t>(r - seg.offset);
+    const std::uint16_t local = grainTables().vertex_local[g][slot];
+    const DetailBlocks::CellXY c = blocks_.cellOf(grains_[g].block[idx(seg.chunk)]);
+    const LatticePoint origin{c.x * kLatticePerCell, c.y * kLatticePerCell};
+    return {
+        {origin.x + local % kBlockSide, origin.y + local / kBlockSide},
+        grains_[g].heights[idx(seg.chunk) * static_cast<std::size_t>(kGrainVertices[g]) + slot],
+        origin};
 }
 
 // ---- terrain changes ----------------------------------------------------------------------
 
 void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
+    ++terrain_generation_;
     if (all) {
         // a snapshot may bring another world (size, spacing): start from its spec
         if (tiles_.empty() || !(terrain_->spec() == spec_))
             adoptSpec();
         blocks_.reset(*terrain_); // records only: no block resident
+        for (Grain& g : grains_)
+            g = Grain{};
+        block_chunks_.clear();
         resizeDiamondState();
         clearAllState();
         heap_.clear();
@@ -347,7 +374,7 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
         rekey_.clear();
         due_.clear();
         for (std::int32_t tile = 0; tile < tileCount(); ++tile) {
-            rebuildTileBlocks(tile);
+            clearTileVertices(tile);
             ++vertex_version_[idx(tile)];
         }
         recomputeBounds({}, true, false);
@@ -380,9 +407,10 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
                          c.y * kLatticePerCell +
                              static_cast<std::int32_t>(local / kLatticePerCell)},
                         ignored);
-                for (std::uint32_t local = 0; local < kDiamondsPerBlock; ++local)
-                    clearCandidate(pooledId(block, local));
-                // its slot in the tile's vertex array becomes a hole: nothing refers to it now
+                for (std::uint32_t local = 1; local < kDiamondsPerBlock; ++local)
+                    if (const DiamondId id = pooledId(block, local); id != kNoDiamond)
+                        clearCandidate(id);
+                // its segments in the tile's vertex array become holes: nothing refers to them
                 evict(block);
             }
             clearCandidate(centreId(record));

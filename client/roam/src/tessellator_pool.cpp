@@ -17,7 +17,8 @@ using namespace detail;
 
 void Tessellator::clearAllState() {
     std::fill(state_.begin(), state_.end(), std::uint8_t{0});
-    std::fill(pooled_state_.begin(), pooled_state_.end(), std::uint8_t{0});
+    for (Grain& g : grains_)
+        std::fill(g.state.begin(), g.state.end(), std::uint8_t{0});
 }
 
 void Tessellator::refuse(bool pool) {
@@ -28,16 +29,24 @@ void Tessellator::refuse(bool pool) {
     }
 }
 
+bool Tessellator::grainPinned(int g, std::int32_t chunk) const {
+    const Grain& grain = grains_[static_cast<std::size_t>(g)];
+    const auto size = static_cast<std::size_t>(kGrainDiamonds[static_cast<std::size_t>(g)]);
+    const auto first = grain.state.begin() + static_cast<std::ptrdiff_t>(idx(chunk) * size);
+    return std::any_of(
+        first, first + static_cast<std::ptrdiff_t>(size), [](std::uint8_t s) { return s != 0; });
+}
+
 bool Tessellator::pinned(std::int32_t block) const {
     // the centre split means the cell's triangles use the block's vertices; any state means a
     // diamond of the block is split or a candidate (held in the heap or a list)
     if (active(centreId(blocks_.recordOfBlock(block))))
         return true;
-    const std::size_t base = idx(block) * kDiamondsPerBlock;
-    return std::any_of(
-        pooled_state_.begin() + static_cast<std::ptrdiff_t>(base),
-        pooled_state_.begin() + static_cast<std::ptrdiff_t>(base + kDiamondsPerBlock),
-        [](std::uint8_t s) { return s != 0; });
+    for (int g = 0; g < kGrains; ++g)
+        if (const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
+            chunk >= 0 && grainPinned(g, chunk))
+            return true;
+    return false;
 }
 
 std::int32_t Tessellator::pinnedBlockCount() const {
@@ -47,13 +56,36 @@ std::int32_t Tessellator::pinnedBlockCount() const {
     return n;
 }
 
-void Tessellator::evict(std::int32_t block) {
-    for (std::uint32_t local = 0; local < kDiamondsPerBlock; ++local) {
-        const DiamondId id = pooledId(block, local);
-        TERRAIN_ASSERT(!heap_.contains(id)); // candidates pin their block
-        pooled_state_[id - kPooled] = 0;
+std::array<std::int32_t, kGrains> Tessellator::grainCounts() const {
+    std::array<std::int32_t, kGrains> n{};
+    for (std::size_t g = 0; g < kGrains; ++g)
+        for (const std::int32_t b : grains_[g].block)
+            n[g] += b >= 0 ? 1 : 0;
+    return n;
+}
+
+void Tessellator::releaseGrain(std::int32_t block, int g) {
+    // no diamond of the grain is split or a candidate, so no triangle uses its vertices
+    Grain& grain = grains_[static_cast<std::size_t>(g)];
+    const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
+    const auto size = static_cast<std::size_t>(kGrainDiamonds[static_cast<std::size_t>(g)]);
+    for (std::size_t slot = 0; slot < size; ++slot) {
+        TERRAIN_ASSERT(!heap_.contains(grainId(g, chunk, static_cast<std::uint32_t>(slot))));
+        grain.state[idx(chunk) * size + slot] = 0;
     }
-    detachBlock(block);
+    detachGrain(block, g);
+    grain.block[idx(chunk)] = -1;
+    if (g > 0) {
+        grain.free.push_back(chunk);
+        block_chunks_[idx(block)][static_cast<std::size_t>(g)] = -1;
+    }
+}
+
+void Tessellator::evict(std::int32_t block) {
+    for (int g = kGrains - 1; g >= 0; --g)
+        if (block_chunks_[idx(block)][static_cast<std::size_t>(g)] >= 0)
+            releaseGrain(block, g);
+    block_chunks_[idx(block)] = {-1, -1, -1};
     if (const std::int32_t tile = tileOfCell(blocks_.cellOf(block)); tile >= 0)
         ++vertex_version_[idx(tile)];
     blocks_.release(block);
@@ -65,7 +97,7 @@ bool Tessellator::evictOne() {
     for (std::size_t step = 0; step < slots; ++step) {
         const auto block = static_cast<std::int32_t>(clock_hand_ % slots);
         clock_hand_ = (clock_hand_ + 1) % slots;
-        if (!blocks_.inUse(block) || block_used_[idx(block)] == use_epoch_ || pinned(block))
+        if (!blocks_.inUse(block) || grains_[0].used[idx(block)] == use_epoch_ || pinned(block))
             continue;
         evict(block);
         return true;
@@ -75,8 +107,9 @@ bool Tessellator::evictOne() {
 
 void Tessellator::sweepIdleBlocks() {
     // memory follows the view: a block out of reach goes after a while even when the pool has
-    // room. A slot is checked about every capacity / kIdleSweep frames, so an idle block goes
-    // between idle and idle + that many frames after its last use.
+    // room, and so does a finer grain no split needs any more. A slot is checked about every
+    // capacity / kIdleSweep frames, so an idle block goes between idle and idle + that many
+    // frames after its last use.
     const auto idle = static_cast<std::uint64_t>(options_.detail_block_idle_frames);
     const auto slots = static_cast<std::size_t>(blocks_.capacity());
     if (idle == 0 || slots == 0)
@@ -84,8 +117,22 @@ void Tessellator::sweepIdleBlocks() {
     for (std::size_t step = 0; step < std::min(slots, kIdleSweep); ++step) {
         const auto block = static_cast<std::int32_t>(idle_hand_ % slots);
         idle_hand_ = (idle_hand_ + 1) % slots;
-        if (blocks_.inUse(block) && block_used_[idx(block)] + idle < use_epoch_ && !pinned(block))
+        if (!blocks_.inUse(block))
+            continue;
+        if (grains_[0].used[idx(block)] + idle < use_epoch_ && !pinned(block)) {
             evict(block);
+            continue;
+        }
+        for (int g = kGrains - 1; g > 0; --g) {
+            const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
+            if (chunk >= 0 &&
+                grains_[static_cast<std::size_t>(g)].used[idx(chunk)] + idle < use_epoch_ &&
+                !grainPinned(g, chunk)) {
+                releaseGrain(block, g);
+                if (const std::int32_t tile = tileOfCell(blocks_.cellOf(block)); tile >= 0)
+                    ++vertex_version_[idx(tile)];
+            }
+        }
     }
 }
 
@@ -97,26 +144,86 @@ std::int32_t Tessellator::materialise(std::int32_t record) {
         refuse(true);
         return -1;
     }
-    const std::int32_t block = blocks_.materialise(*terrain_, record);
+    const std::int32_t block = blocks_.materialise(record);
     resizeDiamondState();
-    for (std::uint32_t local = 0; local < kDiamondsPerBlock; ++local)
-        pooled_state_[pooledId(block, local) - kPooled] = 0;
-    block_used_[idx(block)] = use_epoch_;
-    attachBlock(block);
-    if (const std::int32_t tile = tileOfCell(blocks_.cellOf(block)); tile >= 0)
-        ++vertex_version_[idx(tile)];
-    const std::array<std::int32_t, 1> one = {block};
-    boundBlocks(one, false);
+    block_chunks_[idx(block)] = {block, -1, -1};
+    Grain& coarse = grains_[0];
+    coarse.block[idx(block)] = block;
+    const auto size = static_cast<std::size_t>(kGrainDiamonds[0]);
+    std::fill_n(
+        coarse.state.begin() + static_cast<std::ptrdiff_t>(idx(block) * size), size,
+        std::uint8_t{0});
+    coarse.used[idx(block)] = use_epoch_;
+    attachGrain(block, 0);
+    if (!defer_bounds_)
+        boundGrains(block, 1u);
     ++materialised_;
     return block;
+}
+
+void Tessellator::materialiseGrain(std::int32_t block, int g) {
+    Grain& grain = grains_[static_cast<std::size_t>(g)];
+    std::int32_t chunk = 0;
+    if (!grain.free.empty()) {
+        chunk = grain.free.back();
+        grain.free.pop_back();
+    } else {
+        chunk = static_cast<std::int32_t>(grain.block.size());
+        grain.block.push_back(-1);
+        grain.used.push_back(0);
+        grain.segment.push_back(-1);
+        resizeDiamondState();
+    }
+    grain.block[idx(chunk)] = block;
+    block_chunks_[idx(block)][static_cast<std::size_t>(g)] = chunk;
+    const auto size = static_cast<std::size_t>(kGrainDiamonds[static_cast<std::size_t>(g)]);
+    std::fill_n(
+        grain.state.begin() + static_cast<std::ptrdiff_t>(idx(chunk) * size), size,
+        std::uint8_t{0});
+    grain.used[idx(chunk)] = use_epoch_;
+    grains_[0].used[idx(block)] = use_epoch_;
+    attachGrain(block, g);
+    if (!defer_bounds_)
+        boundGrains(block, 1u << g);
+}
+
+void Tessellator::boundGrains(std::int32_t block, unsigned grain_mask) {
+    const DetailBlocks::CellXY cell = blocks_.cellOf(block);
+    // a split that needs a block often needs its next grain soon after (the pass computed every
+    // grain's bounds): the last pass is reused while the terrain has not changed since
+    if (bounded_cell_.x != cell.x || bounded_cell_.y != cell.y ||
+        bounded_generation_ != terrain_generation_) {
+        const BlockGeometry geometry{
+            metres_per_fine_, grid_w_, grid_h_, spec_.cellsX(), spec_.cellsY()};
+        block_bounds_.compute(
+            *terrain_, blocks_, geometry, std::span<const DetailBlocks::CellXY>(&cell, 1));
+        bounded_cell_ = cell;
+        bounded_generation_ = terrain_generation_;
+    }
+    storeGrains(0, block, grain_mask, false);
+    if (const std::int32_t tile = tileOfCell(cell); tile >= 0)
+        ++vertex_version_[idx(tile)];
 }
 
 void Tessellator::materialiseAll() {
     const std::int32_t limit = options_.max_detail_blocks;
     options_.max_detail_blocks = blocks_.recordCapacity() + 1;
-    for (std::int32_t r = 0; r < blocks_.recordCapacity(); ++r)
-        if (blocks_.recordInUse(r) && blocks_.blockOfRecord(r) < 0)
-            materialise(r);
+    // every grain of every block, then their bounds in passes over squares of cells
+    defer_bounds_ = true;
+    pass_.clear();
+    for (std::int32_t r = 0; r < blocks_.recordCapacity(); ++r) {
+        if (!blocks_.recordInUse(r))
+            continue;
+        std::int32_t block = blocks_.blockOfRecord(r);
+        if (block < 0)
+            block = materialise(r);
+        for (int g = 1; g < kGrains; ++g)
+            if (block_chunks_[idx(block)][static_cast<std::size_t>(g)] < 0)
+                materialiseGrain(block, g);
+        pass_.push_back(block);
+    }
+    defer_bounds_ = false;
+    boundBlocks(pass_, false);
     options_.max_detail_blocks = std::max(limit, blocks_.count());
 }
 

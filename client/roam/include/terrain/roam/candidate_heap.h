@@ -4,9 +4,11 @@
 // which each is due: an indexed binary min-heap over diamond ids, so that a candidate can be
 // re-keyed or taken out in O(log n) when a split, a merge or an op touches it. Entries are
 // also open to sweeps by position (the tessellator's culling sweep, threshold moves). Ids come in
-// two dense ranges: below kPooledIds (eager diamonds) and from it (diamonds of pooled blocks).
+// dense ranges: below kPooledIds (eager diamonds), and from kPooledIds + kRangeBase[r] for each
+// pooled range r (the diamonds of one grain of the pooled blocks).
 // Pure: no GL, no clocks. Single-threaded.
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -21,10 +23,19 @@ class CandidateHeap {
     };
 
     static constexpr std::uint32_t kPooledIds = 1u << 31;
+    static constexpr int kPooledRanges = 3;
+    /// Offset of each pooled range from kPooledIds.
+    static constexpr std::array<std::uint32_t, kPooledRanges> kRangeBase = {0, 1u << 29, 1u << 30};
 
-    /// Ids below `eager`, and from kPooledIds below kPooledIds + `pooled`, may be held; new ones
-    /// start outside the heap.
-    void resizeIds(std::size_t eager, std::size_t pooled);
+    /// The pooled range of a pooled id.
+    static int rangeOf(std::uint32_t id) {
+        const std::uint32_t r = (id - kPooledIds) >> 29;
+        return r >= 2 ? 2 : static_cast<int>(r);
+    }
+
+    /// Ids below `eager`, and in each pooled range r below kPooledIds + kRangeBase[r] +
+    /// pooled[r], may be held; new ones start outside the heap.
+    void resizeIds(std::size_t eager, const std::array<std::size_t, kPooledRanges>& pooled);
     bool contains(std::uint32_t id) const { return position(id) >= 0; }
     /// Inserts `id`, or moves it to `key` if it is held already.
     void push(std::uint32_t id, double key);
@@ -41,23 +52,30 @@ class CandidateHeap {
     /// The entry at position i (0 <= i < size()), in heap order.
     const Entry& at(std::size_t i) const { return heap_[i]; }
     std::size_t memoryBytes() const {
-        return heap_.capacity() * sizeof(Entry) +
-               (position_.capacity() + pooled_position_.capacity()) * sizeof(std::int32_t);
+        std::size_t bytes =
+            heap_.capacity() * sizeof(Entry) + position_.capacity() * sizeof(std::int32_t);
+        for (const auto& p : pooled_position_)
+            bytes += p.capacity() * sizeof(std::int32_t);
+        return bytes;
     }
 
   private:
     void siftUp(std::size_t i);
     void siftDown(std::size_t i);
     std::int32_t& position(std::uint32_t id) {
-        return id < kPooledIds ? position_[id] : pooled_position_[id - kPooledIds];
+        if (id < kPooledIds)
+            return position_[id];
+        const int r = rangeOf(id);
+        return pooled_position_[static_cast<std::size_t>(r)]
+                               [id - kPooledIds - kRangeBase[static_cast<std::size_t>(r)]];
     }
     std::int32_t position(std::uint32_t id) const {
-        return id < kPooledIds ? position_[id] : pooled_position_[id - kPooledIds];
+        return const_cast<CandidateHeap*>(this)->position(id);
     }
 
     std::vector<Entry> heap_;
-    std::vector<std::int32_t> position_;        ///< per eager id: index in heap_, or -1
-    std::vector<std::int32_t> pooled_position_; ///< per pooled id
+    std::vector<std::int32_t> position_; ///< per eager id: index in heap_, or -1
+    std::array<std::vector<std::int32_t>, kPooledRanges> pooled_position_; ///< per pooled id
 };
 
 } // namespace terrain::roam

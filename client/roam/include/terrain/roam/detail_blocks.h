@@ -13,10 +13,12 @@
 //  - a record per detail cell, eager and small: whether it has a patch, and true bounds on its
 //    vertices and on how far any triangle on them is from the true surface (cellError), enough
 //    for the cell's coarsest diamond to carry a true bound without the cell's heights;
-//  - a block of 17 x 17 vertex heights, materialised only while the tessellator refines the
-//    cell (a pool of slots, reused), in fine units of 1/16 quantum: base triangles are exact at
-//    1/16 of a cell in those units, and so is a patch on its straight borders (linear precision
-//    of the spline), so a patch and a halo neighbour agree bit for bit along their shared edge.
+//  - a block id per cell the tessellator refines below its centre (a pool of slots, reused). The
+//    block's heights and diamonds live in the tessellator, in up to three chunks (block_grains.h);
+//    the vertex heights come from fillCellHeights(), in fine units of 1/16 quantum: base
+//    triangles are exact at 1/16 of a cell in those units, and so is a patch on its straight
+//    borders (linear precision of the spline), so a patch and a halo neighbour agree bit for bit
+//    along their shared edge.
 // Pure: no GL, no I/O.
 
 #include <terrain/terrain.h>
@@ -52,9 +54,9 @@ class DetailBlocks {
     void plan(const Terrain& t, CellRect cells, std::vector<std::int32_t>& removing) const;
 
     /// After an op changed the surface of `cells`: re-derives which cells are detail cells around
-    /// them (patches appear and disappear), refreshes the records in `cells` and refills their
-    /// blocks. Records dropped and made are appended to `removed` / `added`; a dropped record's
-    /// block must have been released.
+    /// them (patches appear and disappear) and refreshes the records in `cells` (their blocks'
+    /// heights are the tessellator's to redo). Records dropped and made are appended to
+    /// `removed` / `added`; a dropped record's block must have been released.
     void update(
         const Terrain& t,
         CellRect cells,
@@ -96,11 +98,11 @@ class DetailBlocks {
     /// The record's block, or -1 while it has none.
     std::int32_t blockOfRecord(std::int32_t r) const { return records_[idx(r)].block; }
 
-    // ---- blocks (materialised on demand) ----
+    // ---- blocks (ids of the cells refined below their centre) ----
 
-    /// Gives record `r` a block filled from `t` and returns it.
-    std::int32_t materialise(const Terrain& t, std::int32_t r);
-    /// Frees the block (its record stays).
+    /// Gives record `r` a block id and returns it.
+    std::int32_t materialise(std::int32_t r);
+    /// Frees the block id (its record stays).
     void release(std::int32_t block);
     /// Block of a cell, or -1.
     std::int32_t blockOf(std::int32_t cx, std::int32_t cy) const {
@@ -116,16 +118,6 @@ class DetailBlocks {
     CellXY cellOf(std::int32_t block) const {
         const std::int32_t r = record_of_block_[idx(block)];
         return r < 0 ? CellXY{} : records_[idx(r)].cell;
-    }
-    float finestErrorOfBlock(std::int32_t block) const {
-        return records_[idx(record_of_block_[idx(block)])].finest_error;
-    }
-    /// Height (fine units) of vertex (k, l), k along x, both 0..16.
-    std::int64_t height(std::int32_t block, std::int32_t k, std::int32_t l) const {
-        return heights_[idx(block) * kBlockVertices + static_cast<std::size_t>(l * kBlockSide + k)];
-    }
-    std::span<const std::int64_t> heights(std::int32_t block) const {
-        return {heights_.data() + idx(block) * kBlockVertices, kBlockVertices};
     }
     std::size_t memoryBytes() const;
 
@@ -150,7 +142,6 @@ class DetailBlocks {
     std::int32_t takeRecord(std::int32_t cx, std::int32_t cy);
     void dropRecord(std::int32_t r);
     void summarise(const Terrain& t, std::int32_t r);
-    void fill(const Terrain& t, std::int32_t block);
 
     std::int32_t cells_x_ = 0;
     std::int32_t cells_y_ = 0;
@@ -159,7 +150,15 @@ class DetailBlocks {
     std::vector<std::int32_t> free_records_;
     std::vector<std::int32_t> record_of_block_;
     std::vector<std::int32_t> free_;
-    std::vector<std::int64_t> heights_;
 };
+
+/// The heights (fine units) of cell (cx, cy)'s 17 x 17 vertices, (k, l) at l * 17 + k: its
+/// patch's grid (spline numerators rounded to 1/16 quantum) if it is a real cell with a patch,
+/// else its base triangles, exact; zeros for a virtual cell past the padded grid.
+void fillCellHeights(
+    const Terrain& t,
+    std::int32_t cx,
+    std::int32_t cy,
+    std::span<std::int64_t, kBlockVertices> out);
 
 } // namespace terrain::roam

@@ -30,20 +30,24 @@
 //
 // Detail below the base grid is modelled only where the view refines it. Every detail cell's
 // coarsest diamond (its centre, whose triangles are the cell's base triangles) is eager, with a
-// conservative bound from the cell's record (DetailBlocks::cellError: 2 x the patch's deviation
-// bound, over the cell and its four edge neighbours), so the grid's priorities stay true upper
-// bounds without any heights below the grid. Splitting a centre materialises the cell's block:
-// its 17 x 17 heights and its 255 finer diamonds, whose nested bounds depend only on the heights
-// of the cell and its left and lower neighbours (border diamonds belong to the cell on their +x /
-// +y side), and are clamped to the cell's conservative bound (both are true bounds), which keeps
-// them nested under the centre. Blocks live in a bounded pool: a block no diamond refers to is
-// evicted when the pool needs its slot (clock order, never one used in the current frame); a
-// split that needs a block when every slot is in use is refused like the triangle cap.
+// conservative bound from the records of the 3 x 3 cells around it (DetailBlocks::cellError), so
+// the grid's priorities stay true upper bounds without any heights below the grid. Splitting a
+// centre materialises the cell's block, in grains (block_grains.h): the coarse grain first (the
+// 5 x 5 vertices and the 14 diamonds of levels 13-15), the next one only when a split at a
+// grain's finest level makes the finer diamonds candidates. A grain's nested bounds are exact
+// (BlockBounds: from the full-resolution heights of the 3 x 3 cells around, whatever else is
+// resident), clamped to nested caps that keep them under the centre's conservative bound. Blocks
+// live in a bounded pool: a block no diamond refers to is evicted when the pool needs its slot
+// (clock order, never one used in the current frame); a split that needs a block when every slot
+// is in use is refused like the triangle cap. A grain no diamond refers to goes after the idle
+// time.
 //
 // Output per tile: a TileMesh of indices into the tile's vertex array, which is the 65 x 65 base
-// grid followed by one 17 x 17 block per resident detail block of the tile (tileVertex()).
+// grid followed by one segment per resident grain of a block of the tile (tileVertex()).
 // Pure: no GL, no clocks, no I/O. Single-threaded.
 
+#include <terrain/roam/block_bounds.h>
+#include <terrain/roam/block_grains.h>
 #include <terrain/roam/camera.h>
 #include <terrain/roam/candidate_heap.h>
 #include <terrain/roam/detail_blocks.h>
@@ -81,6 +85,19 @@ struct TessellatorOptions {
     double cull_sweep_degrees = 4.0;
 };
 
+/// Where a tessellator's memory goes (bytes, capacity of its arrays).
+struct TessellatorMemory {
+    std::size_t grid = 0;    ///< eager diamond state: the grid's and the detail cells' centres
+    std::size_t records = 0; ///< detail cells' records and the cell table
+    std::array<std::size_t, 3> grains{}; ///< resident blocks, by grain (block_grains.h)
+    std::size_t heap = 0;                ///< the candidate heap, and its per-id positions
+    std::size_t meshes = 0;              ///< the tiles' index lists and vertex segments
+    std::size_t scratch = 0;             ///< the bounds pass
+    std::size_t total() const {
+        return grid + records + grains[0] + grains[1] + grains[2] + heap + meshes + scratch;
+    }
+};
+
 struct FrameStats {
     std::int64_t splits = 0;
     std::int64_t forced_splits = 0; ///< of which forced by a finer split
@@ -102,15 +119,19 @@ struct FrameStats {
     bool budget_exhausted = false;
 };
 
-/// A tile's vertex array: the (kTileCells + 1)^2 base grid first, row by row, then one
-/// kBlockSide^2 block per resident detail block, in the order the blocks came; a block that goes
-/// leaves a hole (unreferenced vertices, standing in for the tile's first vertex) for the next.
+/// A tile's vertex array: the (kTileCells + 1)^2 base grid first, row by row, then one segment
+/// per resident grain of a detail block (kGrainVertices[g] vertices), in the order they came; a
+/// grain that goes leaves a hole (unreferenced vertices, standing in for the tile's first vertex)
+/// for the next of its size.
 inline constexpr std::int32_t kTileBaseVertices = (kTileCells + 1) * (kTileCells + 1);
 
 /// A tile vertex: lattice position (1/16 cell) and height in fine units (1/16 quantum).
 struct TileVertex {
     LatticePoint position;
     std::int64_t height = 0;
+    /// Lattice origin of the cell whose block holds it; (-1, -1) on the base grid. A vertex on a
+    /// cell border is in both cells' blocks, with the same height.
+    LatticePoint block_origin{-1, -1};
 };
 
 class Tessellator {
@@ -152,6 +173,8 @@ class Tessellator {
     std::int64_t triangleCount() const { return triangles_; }
     /// Detail blocks resident now.
     std::int32_t blockCount() const { return blocks_.count(); }
+    /// Resident chunks of each grain (grain 0: one per block).
+    std::array<std::int32_t, kGrains> grainCounts() const;
     /// Resident blocks that cannot be evicted now (some diamond refers to them); O(pool).
     std::int32_t pinnedBlockCount() const;
     /// Detail cells (eager records), resident or not.
@@ -160,7 +183,8 @@ class Tessellator {
     /// lazy bounds with bounds built for everything at once).
     void materialiseAll();
     /// Bytes of per-diamond state, records, blocks and index lists.
-    std::size_t memoryBytes() const;
+    std::size_t memoryBytes() const { return memory().total(); }
+    TessellatorMemory memory() const;
     /// Diamonds split since construction that needed a block no cell had (must stay 0).
     std::int64_t missingBlockRefusals() const { return missing_block_refusals_; }
 
@@ -172,8 +196,7 @@ class Tessellator {
 
   private:
     /// Ids: grid vertices, then one centre per detail record (eager, below kPooled); from
-    /// kPooled, 256 per block slot (the cell's half-open 16 x 16 lattice; local 0 is a grid vertex
-    /// and the centre's local position is unused).
+    /// kPooled + kRangeBase[g], kGrainDiamonds[g] per chunk of grain g (block_grains.h's slots).
     using DiamondId = std::uint32_t;
     static constexpr DiamondId kNoDiamond = 0xffffffffu;
     static constexpr DiamondId kPooled = CandidateHeap::kPooledIds;
@@ -183,10 +206,23 @@ class Tessellator {
     static constexpr std::uint8_t kWatched = 8;
     static std::size_t idx(std::int64_t v) { return static_cast<std::size_t>(v); }
 
-    struct Bounds {
-        float delta = 0.0f; ///< metres, rounded up
-        float zlo = 0.0f;   ///< metres, rounded down
-        float zhi = 0.0f;   ///< metres, rounded up
+    using Bounds = DiamondBounds;
+    /// The resident chunks of one grain of the blocks, and their diamonds and vertices.
+    struct Grain {
+        std::vector<Bounds> bounds;        ///< per diamond slot of every chunk
+        std::vector<float> cap;            ///< the nested cap each bound was clamped to
+        std::vector<std::uint8_t> state;   ///< per diamond slot
+        std::vector<std::int64_t> heights; ///< per vertex slot of every chunk
+        std::vector<std::int32_t> block;   ///< per chunk: its block, or -1 (free)
+        std::vector<std::uint64_t> used;   ///< per chunk: the epoch it was last used in
+        std::vector<std::int32_t> segment; ///< per chunk: its segment in its tile, or -1
+        std::vector<std::int32_t> free;    ///< free chunks (grains 1 and 2; grain 0's are blocks)
+    };
+    /// A run of a tile's vertex array that holds one grain of one block, or a hole.
+    struct VertexSegment {
+        std::int32_t offset = 0; ///< past the base grid
+        std::int32_t chunk = -1; ///< -1: a hole
+        std::int32_t grain = 0;
     };
     void adoptSpec();
     bool insideMap(LatticePoint p) const {
@@ -199,48 +235,86 @@ class Tessellator {
     DiamondId resolve(LatticePoint p);
     LatticePoint pointOf(DiamondId id) const;
     std::int64_t heightAt(LatticePoint p) const;
+    static int grainOfId(DiamondId id) { return CandidateHeap::rangeOf(id); }
+    /// Index of a pooled id in its grain's per-diamond arrays.
+    static std::size_t pooledSlot(DiamondId id, int g) {
+        return id - kPooled - CandidateHeap::kRangeBase[static_cast<std::size_t>(g)];
+    }
+    std::int32_t chunkOfId(DiamondId id, int g) const {
+        return static_cast<std::int32_t>(
+            pooledSlot(id, g) /
+            static_cast<std::size_t>(kGrainDiamonds[static_cast<std::size_t>(g)]));
+    }
+    /// The block a pooled id belongs to.
+    std::int32_t blockOfId(DiamondId id) const {
+        const int g = grainOfId(id);
+        return grains_[static_cast<std::size_t>(g)].block[idx(chunkOfId(id, g))];
+    }
+    DiamondId grainId(int g, std::int32_t chunk, std::uint32_t slot) const {
+        return kPooled + CandidateHeap::kRangeBase[static_cast<std::size_t>(g)] +
+               static_cast<DiamondId>(chunk) *
+                   static_cast<DiamondId>(kGrainDiamonds[static_cast<std::size_t>(g)]) +
+               slot;
+    }
     std::uint8_t& state(DiamondId id) {
-        return id < kPooled ? state_[id] : pooled_state_[id - kPooled];
+        if (id < kPooled)
+            return state_[id];
+        const int g = grainOfId(id);
+        return grains_[static_cast<std::size_t>(g)].state[pooledSlot(id, g)];
     }
-    std::uint8_t state(DiamondId id) const {
-        return id < kPooled ? state_[id] : pooled_state_[id - kPooled];
-    }
+    std::uint8_t state(DiamondId id) const { return const_cast<Tessellator*>(this)->state(id); }
     Bounds& bounds(DiamondId id) {
-        return id < kPooled ? bounds_[id] : pooled_bounds_[id - kPooled];
+        if (id < kPooled)
+            return bounds_[id];
+        const int g = grainOfId(id);
+        return grains_[static_cast<std::size_t>(g)].bounds[pooledSlot(id, g)];
     }
-    const Bounds& bounds(DiamondId id) const {
-        return id < kPooled ? bounds_[id] : pooled_bounds_[id - kPooled];
+    const Bounds& bounds(DiamondId id) const { return const_cast<Tessellator*>(this)->bounds(id); }
+    float pooledCap(DiamondId id) const {
+        const int g = grainOfId(id);
+        return grains_[static_cast<std::size_t>(g)].cap[pooledSlot(id, g)];
+    }
+    /// Marks the pooled id's chunk and block used in this epoch (never evicted in it).
+    void markUsed(DiamondId id) {
+        const int g = grainOfId(id);
+        const std::int32_t chunk = chunkOfId(id, g);
+        grains_[static_cast<std::size_t>(g)].used[idx(chunk)] = use_epoch_;
+        grains_[0].used[idx(grains_[static_cast<std::size_t>(g)].block[idx(chunk)])] = use_epoch_;
     }
     bool active(DiamondId id) const { return id != kNoDiamond && (state(id) & kActive) != 0; }
     bool isCentre(DiamondId id) const { return id >= grid_count_ && id < kPooled; }
     DiamondId centreId(std::int32_t record) const {
         return grid_count_ + static_cast<DiamondId>(record);
     }
-    DiamondId pooledId(std::int32_t block, std::uint32_t local) const {
-        return kPooled + static_cast<DiamondId>(block) * (kLatticePerCell * kLatticePerCell) +
-               local;
-    }
+    /// The id of diamond `local` (l * 16 + k) of `block`, or kNoDiamond if its grain is not
+    /// resident.
+    DiamondId pooledId(std::int32_t block, std::uint32_t local) const;
     void resizeDiamondState();
     void clearAllState();
 
     // the block pool (tessellator_pool.cpp)
-    /// Gives `record` a resident block with its bounds (evicting one if the pool is full);
+    /// Gives `record` a resident block with its coarse grain (evicting one if the pool is full);
     /// -1 if every slot is in use.
     std::int32_t materialise(std::int32_t record);
+    /// Gives `block` its grain `g` (1 or 2) with its bounds and heights.
+    void materialiseGrain(std::int32_t block, int g);
+    /// Computes the bounds and heights of the grains of `block` in `grain_mask` (bit g).
+    void boundGrains(std::int32_t block, unsigned grain_mask);
     bool pinned(std::int32_t block) const;
+    /// Some diamond of the chunk is split or a candidate.
+    bool grainPinned(int g, std::int32_t chunk) const;
     bool evictOne();
-    /// Releases blocks idle for options_.detail_block_idle_frames, a few slots per frame.
+    /// Releases blocks (or their finer grains) idle for options_.detail_block_idle_frames, a
+    /// few slots per frame.
     void sweepIdleBlocks();
     void evict(std::int32_t block);
+    void releaseGrain(std::int32_t block, int g);
     /// The triangle cap or the pool refused a split this frame.
     void refuse(bool pool);
 
     // bounds
-    /// All return whether the diamond's bounds changed; `cap` (metres) clamps a pooled
-    /// diamond's delta to its cells' conservative bound.
+    /// Both return whether the diamond's bounds changed; `cap` (metres) clamps the delta.
     bool computeBounds(const Diamond& d, DiamondId id, float cap);
-    /// computeBounds for a diamond strictly inside `block`'s cell, from the block directly.
-    bool computeBlockBounds(const Diamond& d, DiamondId id, std::int32_t block, float cap);
     bool computeCentreBounds(std::int32_t record);
     bool storeBounds(DiamondId id, float delta, float zlo, float zhi);
     bool finishBounds(
@@ -261,10 +335,12 @@ class Tessellator {
         double hi = -std::numeric_limits<double>::infinity();
     };
     WindowBound windowBound(std::int32_t cx, std::int32_t cy) const;
-    /// Bounds of every diamond of `blocks` (resident), finest level first; the interiors of
-    /// their left and lower neighbours come from those blocks or, where not resident, from
-    /// transient ones. With `collect`, ids whose bounds changed go to recomputed_.
+    /// Bounds and heights of every resident grain of `blocks` (BlockBounds, in passes over
+    /// squares of cells). With `collect`, ids whose bounds changed go to recomputed_.
     void boundBlocks(std::span<const std::int32_t> blocks, bool collect);
+    /// Stores what the last BlockBounds pass computed for its i-th cell into `block`'s grains in
+    /// `grain_mask`; returns whether any stored bound changed (ids to recomputed_ if `collect`).
+    void storeGrains(std::size_t i, std::int32_t block, unsigned grain_mask, bool collect);
     /// Bounds after the surface of `cells` changed (everything when `all`): resident blocks that
     /// depend on them, centres, then the grid, finest level first; with `collect`, the ids of
     /// those whose bounds changed go to recomputed_ (candidates to refresh).
@@ -292,10 +368,11 @@ class Tessellator {
     Diamond tileRoot(std::int32_t tile) const;
     void emitTile(std::int32_t tile);
     void emitTriangle(const Triangle& t, std::int32_t tile, TileMesh& mesh);
-    void rebuildTileBlocks(std::int32_t tile);
+    void clearTileVertices(std::int32_t tile);
     std::int32_t tileOfCell(DetailBlocks::CellXY c) const; ///< -1 for virtual cells
-    void attachBlock(std::int32_t block);
-    void detachBlock(std::int32_t block);
+    /// Gives grain `g` of `block` a segment of its tile's vertex array (none for virtual cells).
+    void attachGrain(std::int32_t block, int g);
+    void detachGrain(std::int32_t block, int g);
 
     // frames
     void rebuildTopDown(const ViewMetric& m, FrameStats& stats);
@@ -328,17 +405,24 @@ class Tessellator {
     std::uint32_t grid_count_ = 0;
     DetailBlocks blocks_;
 
-    // per diamond: eager ids, and pooled ones (by block slot)
+    // per diamond: eager ids, and pooled ones (by grain)
     std::vector<Bounds> bounds_;
     std::vector<std::uint8_t> state_;
-    std::vector<Bounds> pooled_bounds_;
-    std::vector<float> pooled_cap_; ///< nested cap (metres) the pooled bound was clamped to
-    std::vector<std::uint8_t> pooled_state_;
+    std::array<Grain, kGrains> grains_;
+    /// Per block slot: its chunk of each grain, or -1 (grain 0's is the block itself).
+    std::vector<std::array<std::int32_t, kGrains>> block_chunks_;
 
     // the block pool
-    std::vector<std::uint64_t> block_used_; ///< per block slot: epoch it was last used in
-    std::vector<std::int32_t> transient_;   ///< blocks made for one bounds pass only
+    BlockBounds block_bounds_;
     std::vector<std::int32_t> pass_;
+    std::vector<DetailBlocks::CellXY> pass_cells_;
+    std::vector<std::int32_t> pass_blocks_;
+    std::array<std::int64_t, kBlockVertices> heights_scratch_{};
+    bool defer_bounds_ = false; ///< materialiseAll: bounds in one pass at the end
+    /// The cell block_bounds_ last computed alone, and the terrain generation it saw.
+    DetailBlocks::CellXY bounded_cell_{};
+    std::uint64_t bounded_generation_ = 0;
+    std::uint64_t terrain_generation_ = 0; ///< bumped by every terrainChanged()
     std::size_t clock_hand_ = 0;
     std::size_t idle_hand_ = 0;
     std::uint64_t frame_ = 0;
@@ -355,11 +439,12 @@ class Tessellator {
     std::vector<TileMesh> tiles_;
     std::vector<std::uint8_t> tile_visible_;
     std::vector<std::uint32_t> vertex_version_;
-    /// Block slots in each tile's vertex array (-1: a hole left by a block that went); a slot
-    /// keeps its place while its block lives, so index lists never move.
-    std::vector<std::vector<std::int32_t>> tile_blocks_;
-    std::vector<std::vector<std::int32_t>> tile_holes_; ///< free places in tile_blocks_
-    std::vector<std::int32_t> block_local_;             ///< block slot -> index in its tile
+    /// Segments of each tile's vertex array past the base grid, by offset; a segment keeps its
+    /// place while its grain lives, so index lists never move.
+    std::vector<std::vector<VertexSegment>> tile_segments_;
+    /// Per tile and grain: segments that are holes, free for a grain of that size.
+    std::vector<std::array<std::vector<std::int32_t>, kGrains>> tile_holes_;
+    std::vector<std::int32_t> tile_vertices_; ///< per tile: vertices past the base grid
 
     // split/merge state
     CandidateHeap heap_;             ///< candidates by the eye travel at which to re-examine them

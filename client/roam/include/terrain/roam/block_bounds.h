@@ -1,0 +1,105 @@
+#pragma once
+
+// The nested error bounds of the diamonds below the base grid, computed for a set of detail
+// cells at once from their full-resolution heights (the kernel behind the tessellator's blocks).
+//
+// A sub-grid diamond's bound (ROAM's nested bound: how far its centre lies from its hypotenuse,
+// plus the largest of its children's bounds; the finest triangles start from the patch's grid
+// error) depends on its descendants, which reach into the cells around its own: the bounds of a
+// cell's 255 diamonds depend on the heights of its 3 x 3 cells and no further
+// (RoamMesh.LazyBoundsEqualBoundsBuiltForEveryCellAtOnce). So a pass takes every detail cell of
+// the targets' 3 x 3 windows, computes their heights (fillCellHeights, with the tessellator's
+// rules for the map's last lines), and their bounds level by level, finest first; each target's
+// bounds are then exact whatever else is resident. A bound is clamped to a nested cap (the
+// largest cellError of the cells its triangles and its children's touch), so a diamond's bound is
+// never above the conservative bound of the cell's centre, nor below a child's.
+//
+// Heights are fine units (1/16 quantum), bounds metres (floats rounded outward). Pure: no GL,
+// no clocks, no I/O. Single-threaded; the scratch is reused between passes.
+
+#include <terrain/roam/detail_blocks.h>
+#include <terrain/roam/lattice.h>
+#include <terrain/terrain.h>
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace terrain::roam {
+
+/// A diamond's nested bound: `delta` (metres, rounded up) bounds the vertical distance between its
+/// triangles, or any refinement of them, and the true surface; [zlo, zhi] holds everything its
+/// refinement can produce, over the square its descendants reach.
+struct DiamondBounds {
+    float delta = 0.0f;
+    float zlo = 0.0f;
+    float zhi = 0.0f;
+};
+
+/// The map as the tessellator sees it.
+struct BlockGeometry {
+    double metres_per_fine = 0.0;
+    std::int32_t grid_w = 0; ///< padded grid, vertices
+    std::int32_t grid_h = 0;
+    std::int32_t cells_x = 0; ///< real map, cells
+    std::int32_t cells_y = 0;
+};
+
+class BlockBounds {
+  public:
+    /// Heights and bounds of every sub-grid diamond of every cell in `cells` (each a detail cell,
+    /// none twice). A pass's scratch spans the cells' bounding box: callers split scattered sets.
+    void compute(
+        const Terrain& t,
+        const DetailBlocks& records,
+        const BlockGeometry& g,
+        std::span<const DetailBlocks::CellXY> cells);
+
+    /// The bounds of diamond `local` (l * 16 + k; not the grid vertex 0) of cells[i]; zero for a
+    /// diamond off the map (a virtual cell's past its first line).
+    const DiamondBounds& bounds(std::size_t i, std::uint32_t local) const {
+        return bounds_[target_bounds_[i] * kCellDiamonds + local];
+    }
+    /// The cap bounds(i, local) was clamped to.
+    float cap(std::size_t i, std::uint32_t local) const {
+        return caps_[target_bounds_[i] * kCellDiamonds + local];
+    }
+    /// The heights of cells[i]'s 17 x 17 vertices as its block draws them (fillCellHeights).
+    void heights(std::size_t i, std::span<std::int64_t, kBlockVertices> out) const;
+
+    std::size_t memoryBytes() const;
+
+  private:
+    static constexpr std::size_t kCellDiamonds = kLatticePerCell * kLatticePerCell;
+
+    std::int32_t regionIndex(std::int32_t cx, std::int32_t cy) const {
+        return (cy - ry0_) * rw_ + (cx - rx0_);
+    }
+    /// On the map's last lines or past them: the mesh reads other heights than the cell's own.
+    bool special(std::int32_t cx, std::int32_t cy) const;
+    void fillRuled(std::int32_t cx, std::int32_t cy, std::span<std::int64_t, kBlockVertices> out);
+    void boundCell(std::int32_t cx, std::int32_t cy, int level);
+
+    const Terrain* terrain_ = nullptr;
+    const DetailBlocks* records_ = nullptr;
+    BlockGeometry geometry_{};
+    std::int32_t rx0_ = 0; ///< region: the targets' bounding box, two cells wider
+    std::int32_t ry0_ = 0;
+    std::int32_t rw_ = 0;
+    std::int32_t rh_ = 0;
+    std::vector<std::int32_t> height_slot_; ///< per region cell: its heights in heights_, or -1
+    std::vector<std::int32_t> ruled_slot_;  ///< per region cell: its heights in ruled_, or -1
+    std::vector<std::int32_t> bound_slot_;  ///< per region cell: its bounds in bounds_, or -1
+    std::vector<std::int64_t> heights_;     ///< kBlockVertices per slot, the cell's own
+    std::vector<std::int64_t> ruled_;       ///< the same where the mesh's rules differ
+    std::vector<DiamondBounds> bounds_;     ///< kCellDiamonds per slot
+    std::vector<float> caps_;
+    std::vector<float> cell_caps_;                  ///< per region cell: its cellError (metres)
+    std::vector<DetailBlocks::CellXY> bound_cells_; ///< the cells with bounds, by slot
+    std::vector<std::size_t> target_bounds_;        ///< bound slot of each target
+    std::vector<DetailBlocks::CellXY> targets_;
+    std::array<std::int64_t, kBlockVertices> scratch_{};
+};
+
+} // namespace terrain::roam
