@@ -205,10 +205,10 @@ TEST(RoamTileMesh, SlotsStayDenseAndEveryWriteIsCounted) {
     mesh.takeChanges();
     const std::uint64_t before = mesh.counters().index_bytes_written;
     std::mt19937_64 rng(1);
-    std::set<std::uint64_t> gone;
+    std::set<std::uint32_t> gone;
     while (gone.size() < 40)
-        gone.insert(1 + rng() % 100);
-    for (const std::uint64_t k : gone)
+        gone.insert(static_cast<std::uint32_t>(1 + rng() % 100));
+    for (const std::uint32_t k : gone)
         EXPECT_TRUE(mesh.remove(k));
     EXPECT_FALSE(mesh.remove(*gone.begin()));
     mesh.add(1000, {1000, 1001, 1002}); // takes the last freed slot

@@ -17,39 +17,87 @@ namespace {
 
 constexpr std::int32_t kSide = kBlockSide; // 17 vertices a side
 
+/// A cell of the 3 x 3 around a diamond's own, as (dy + 1) * 3 + (dx + 1); 4 is its own.
+constexpr int kOwnCell = 4;
+
+using Offset = std::array<std::int8_t, 2>;
+
+/// A vertex read: which cell's heights (its closed square, the diamond's own preferred) and
+/// where in them.
+struct VertexRef {
+    Offset at{}; ///< relative to the diamond's cell origin
+    std::uint8_t cell = kOwnCell;
+    std::uint16_t index = 0; ///< l * 17 + k in that cell
+};
+
+/// A child read: the cell that owns it (half-open squares) and its local position there.
+struct ChildRef {
+    Offset at{};
+    std::uint8_t cell = kOwnCell;
+    std::uint8_t local = 0;
+    std::array<VertexRef, 4> corners{}; ///< its hypotenuse ends, then its apexes
+};
+
 /// A sub-grid diamond's geometry relative to its cell's origin (lattice units; the same in every
 /// cell, as cell origins are multiples of 16).
 struct LocalDiamond {
-    using Offset = std::array<std::int8_t, 2>;
     std::uint8_t local = 0; ///< l * 16 + k
     std::int8_t k = 0;
     std::int8_t l = 0;
-    std::array<Offset, 2> ends{};
-    std::array<Offset, 2> apexes{};
-    std::array<Offset, 4> kids{}; ///< none at level 19
-    /// Level 19: the cell (offset from this one) of the triangle with apexes[i].
-    std::array<Offset, 2> finest_cells{};
-    /// Every vertex read is in the cell's closed square and every child in its half-open one.
-    bool interior = false;
+    VertexRef centre;
+    std::array<VertexRef, 2> ends{};
+    std::array<VertexRef, 2> apexes{};
+    std::array<ChildRef, 4> kids{}; ///< none at level 19
+    /// Level 19: the cell (0..8) of the triangle with apexes[i].
+    std::array<std::uint8_t, 2> finest_cells{};
 };
+
+using Mask = std::array<std::uint64_t, 4>; ///< one bit per local position
+
+bool test(const Mask& m, std::uint32_t local) {
+    return ((m[local / 64] >> (local % 64)) & 1u) != 0;
+}
+
+void set(Mask& m, std::uint32_t local) {
+    m[local / 64] |= std::uint64_t{1} << (local % 64);
+}
 
 struct Tables {
     std::array<std::vector<LocalDiamond>, kFinestTriangleLevel> by_level;
+    /// The diamonds of each cell of a target's 3 x 3 that the target's bounds depend on (its
+    /// own 255, and the descendants of its border diamonds in its neighbours).
+    std::array<Mask, 9> closure{};
 };
 
-bool inClosed(LocalDiamond::Offset o) {
-    return o[0] >= 0 && o[1] >= 0 && o[0] <= kLatticePerCell && o[1] <= kLatticePerCell;
+int cellIndex(std::int32_t dx, std::int32_t dy) {
+    return (dy + 1) * 3 + (dx + 1);
+}
+
+VertexRef vertexRef(std::int32_t x, std::int32_t y) {
+    // the diamond's own closed square first: a vertex on its border is the same in both cells
+    const std::int32_t dx = x < 0 ? -1 : (x > kLatticePerCell ? 1 : 0);
+    const std::int32_t dy = y < 0 ? -1 : (y > kLatticePerCell ? 1 : 0);
+    TERRAIN_ASSERT(
+        x >= -kLatticePerCell && y >= -kLatticePerCell && x <= 2 * kLatticePerCell &&
+        y <= 2 * kLatticePerCell);
+    VertexRef r;
+    r.at = {static_cast<std::int8_t>(x), static_cast<std::int8_t>(y)};
+    r.cell = static_cast<std::uint8_t>(cellIndex(dx, dy));
+    r.index =
+        static_cast<std::uint16_t>((y - dy * kLatticePerCell) * kSide + (x - dx * kLatticePerCell));
+    return r;
+}
+
+/// Floor division into a cell offset and the position in it.
+std::int32_t cellOf(std::int32_t v) {
+    return v < 0 ? -1 : (v >= kLatticePerCell ? 1 : 0);
 }
 
 const Tables& tables() {
     static const Tables t = [] {
         Tables out;
         // a cell away from the origin, so that every offset is a plain difference
-        const LatticePoint o{kLatticePerCell, kLatticePerCell};
-        const auto rel = [&](LatticePoint p) {
-            return LocalDiamond::Offset{
-                static_cast<std::int8_t>(p.x - o.x), static_cast<std::int8_t>(p.y - o.y)};
-        };
+        const LatticePoint o{2 * kLatticePerCell, 2 * kLatticePerCell};
         for (std::int32_t l = 0; l < kLatticePerCell; ++l)
             for (std::int32_t k = 0; k < kLatticePerCell; ++k) {
                 if ((k | l) == 0)
@@ -59,36 +107,78 @@ const Tables& tables() {
                 ld.local = static_cast<std::uint8_t>(l * kLatticePerCell + k);
                 ld.k = static_cast<std::int8_t>(k);
                 ld.l = static_cast<std::int8_t>(l);
+                ld.centre = vertexRef(k, l);
                 const auto ends = hypotenuseEnds(d);
                 const auto tips = roam::apexes(d);
-                bool interior = true;
                 for (std::size_t i = 0; i < 2; ++i) {
-                    ld.ends[i] = rel(ends[i]);
-                    ld.apexes[i] = rel(tips[i]);
-                    interior = interior && inClosed(ld.ends[i]) && inClosed(ld.apexes[i]);
+                    ld.ends[i] = vertexRef(ends[i].x - o.x, ends[i].y - o.y);
+                    ld.apexes[i] = vertexRef(tips[i].x - o.x, tips[i].y - o.y);
                 }
                 if (d.level == kMaxDiamondLevel) {
                     for (std::size_t i = 0; i < 2; ++i) {
                         const LatticePoint c3 = centroidTimes3(triangleOf(d, tips[i]));
-                        ld.finest_cells[i] = {
-                            static_cast<std::int8_t>(c3.x / (3 * kLatticePerCell) - 1),
-                            static_cast<std::int8_t>(c3.y / (3 * kLatticePerCell) - 1)};
-                        interior =
-                            interior && ld.finest_cells[i][0] == 0 && ld.finest_cells[i][1] == 0;
+                        ld.finest_cells[i] = static_cast<std::uint8_t>(cellIndex(
+                            c3.x / (3 * kLatticePerCell) - 2, c3.y / (3 * kLatticePerCell) - 2));
                     }
                 } else {
                     std::array<LatticePoint, 4> kids{};
                     children(d, kids);
                     for (std::size_t i = 0; i < 4; ++i) {
-                        ld.kids[i] = rel(kids[i]);
-                        const auto [kx, ky] = ld.kids[i];
-                        interior = interior && kx >= 0 && ky >= 0 && kx < kLatticePerCell &&
-                                   ky < kLatticePerCell && (kx | ky) != 0;
+                        const std::int32_t x = kids[i].x - o.x;
+                        const std::int32_t y = kids[i].y - o.y;
+                        ChildRef& c = ld.kids[i];
+                        c.at = {static_cast<std::int8_t>(x), static_cast<std::int8_t>(y)};
+                        const std::int32_t dx = cellOf(x);
+                        const std::int32_t dy = cellOf(y);
+                        c.cell = static_cast<std::uint8_t>(cellIndex(dx, dy));
+                        c.local = static_cast<std::uint8_t>(
+                            (y - dy * kLatticePerCell) * kLatticePerCell +
+                            (x - dx * kLatticePerCell));
+                        const Diamond cd = diamondAt(kids[i]);
+                        const auto ce = hypotenuseEnds(cd);
+                        const auto ca = roam::apexes(cd);
+                        for (std::size_t j = 0; j < 2; ++j) {
+                            c.corners[j] = vertexRef(ce[j].x - o.x, ce[j].y - o.y);
+                            c.corners[2 + j] = vertexRef(ca[j].x - o.x, ca[j].y - o.y);
+                        }
                     }
                 }
-                ld.interior = interior;
                 out.by_level[static_cast<std::size_t>(d.level)].push_back(ld);
             }
+        // the closure: a target's diamonds and, recursively, their children
+        std::vector<LatticePoint> stack;
+        for (std::int32_t local = 1; local < kLatticePerCell * kLatticePerCell; ++local)
+            stack.push_back({o.x + local % kLatticePerCell, o.y + local / kLatticePerCell});
+        while (!stack.empty()) {
+            const LatticePoint p = stack.back();
+            stack.pop_back();
+            const std::int32_t dx = cellOf(p.x - o.x);
+            const std::int32_t dy = cellOf(p.y - o.y);
+            // every read of a diamond the target depends on stays in the target's 3 x 3
+            TERRAIN_ASSERT(p.x - o.x >= -kLatticePerCell + 1 && p.x - o.x < 2 * kLatticePerCell);
+            TERRAIN_ASSERT(p.y - o.y >= -kLatticePerCell + 1 && p.y - o.y < 2 * kLatticePerCell);
+            const auto local = static_cast<std::uint32_t>(
+                (p.y - o.y - dy * kLatticePerCell) * kLatticePerCell +
+                (p.x - o.x - dx * kLatticePerCell));
+            Mask& m = out.closure[static_cast<std::size_t>(cellIndex(dx, dy))];
+            if (test(m, local))
+                continue;
+            set(m, local);
+            const Diamond d = diamondAt(p);
+            // and so does every height it or a child without bounds reads
+            const auto within = [&](LatticePoint q) {
+                return q.x - o.x >= -kLatticePerCell && q.x - o.x <= 2 * kLatticePerCell &&
+                       q.y - o.y >= -kLatticePerCell && q.y - o.y <= 2 * kLatticePerCell;
+            };
+            for (const LatticePoint q : hypotenuseEnds(d))
+                TERRAIN_ASSERT(within(q));
+            for (const LatticePoint q : roam::apexes(d))
+                TERRAIN_ASSERT(within(q));
+            std::array<LatticePoint, 4> kids{};
+            const int n = children(d, kids);
+            for (int i = 0; i < n; ++i)
+                stack.push_back(kids[static_cast<std::size_t>(i)]);
+        }
         return out;
     }();
     return t;
@@ -151,6 +241,7 @@ void BlockBounds::compute(
     const DetailBlocks& records,
     const BlockGeometry& g,
     std::span<const DetailBlocks::CellXY> cells) {
+    const Tables& tab = tables();
     terrain_ = &t;
     records_ = &records;
     geometry_ = g;
@@ -168,51 +259,55 @@ void BlockBounds::compute(
         x1 = std::max(x1, c.x);
         y1 = std::max(y1, c.y);
     }
-    // cells 0 .. grid - 1: the last column and row are the virtual ones past the padded grid
-    rx0_ = std::max(0, x0 - 2);
-    ry0_ = std::max(0, y0 - 2);
-    const std::int32_t rx1 = std::min(g.grid_w - 1, x1 + 2);
-    const std::int32_t ry1 = std::min(g.grid_h - 1, y1 + 2);
+    // the targets' 3 x 3 windows; cells 0 .. grid - 1, the last column and row being the
+    // virtual ones past the padded grid
+    rx0_ = std::max(0, x0 - 1);
+    ry0_ = std::max(0, y0 - 1);
+    const std::int32_t rx1 = std::min(g.grid_w - 1, x1 + 1);
+    const std::int32_t ry1 = std::min(g.grid_h - 1, y1 + 1);
     rw_ = rx1 - rx0_ + 1;
     rh_ = ry1 - ry0_ + 1;
     const auto region = static_cast<std::size_t>(rw_) * static_cast<std::size_t>(rh_);
+    needed_.assign(region, {});
     height_slot_.assign(region, -1);
     ruled_slot_.assign(region, -1);
     bound_slot_.assign(region, -1);
     cell_caps_.resize(region);
-    for (std::int32_t y = ry0_; y <= ry1; ++y)
-        for (std::int32_t x = rx0_; x <= rx1; ++x) {
-            const std::int32_t r = records.recordOf(x, y);
-            cell_caps_[static_cast<std::size_t>(regionIndex(x, y))] =
-                r < 0 ? 0.0f
-                      : roundUp(static_cast<double>(records.cellError(r)) * g.metres_per_fine);
-        }
-
-    // bounds for every detail cell of the targets' 3 x 3 windows, heights one cell further
-    bound_cells_.clear();
     for (const auto& c : cells)
-        for (std::int32_t y = std::max(ry0_, c.y - 1); y <= std::min(ry1, c.y + 1); ++y)
-            for (std::int32_t x = std::max(rx0_, c.x - 1); x <= std::min(rx1, c.x + 1); ++x) {
-                std::int32_t& slot = bound_slot_[static_cast<std::size_t>(regionIndex(x, y))];
-                if (slot < 0 && records.recordOf(x, y) >= 0) {
-                    slot = static_cast<std::int32_t>(bound_cells_.size());
-                    bound_cells_.push_back({x, y});
-                }
+        for (std::int32_t dy = -1; dy <= 1; ++dy)
+            for (std::int32_t dx = -1; dx <= 1; ++dx) {
+                const std::int32_t x = c.x + dx;
+                const std::int32_t y = c.y + dy;
+                if (x < rx0_ || y < ry0_ || x > rx1 || y > ry1)
+                    continue;
+                Mask& m = needed_[static_cast<std::size_t>(regionIndex(x, y))];
+                const Mask& add = tab.closure[static_cast<std::size_t>(cellIndex(dx, dy))];
+                for (std::size_t w = 0; w < m.size(); ++w)
+                    m[w] |= add[w];
             }
+    // heights for every cell of the windows, bounds for the detail cells among them
+    bound_cells_.clear();
     std::int32_t heights = 0;
-    for (const auto& c : bound_cells_)
-        for (std::int32_t y = std::max(ry0_, c.y - 1); y <= std::min(ry1, c.y + 1); ++y)
-            for (std::int32_t x = std::max(rx0_, c.x - 1); x <= std::min(rx1, c.x + 1); ++x) {
-                std::int32_t& slot = height_slot_[static_cast<std::size_t>(regionIndex(x, y))];
-                if (slot < 0)
-                    slot = heights++;
-            }
-    heights_.resize(static_cast<std::size_t>(heights) * kBlockVertices);
     std::int32_t ruled = 0;
     for (std::int32_t y = ry0_; y <= ry1; ++y)
-        for (std::int32_t x = rx0_; x <= rx1; ++x)
-            if (height_slot_[static_cast<std::size_t>(regionIndex(x, y))] >= 0 && special(x, y))
-                ruled_slot_[static_cast<std::size_t>(regionIndex(x, y))] = ruled++;
+        for (std::int32_t x = rx0_; x <= rx1; ++x) {
+            const auto at = static_cast<std::size_t>(regionIndex(x, y));
+            const std::int32_t r = records.recordOf(x, y);
+            cell_caps_[at] =
+                r < 0 ? 0.0f
+                      : roundUp(static_cast<double>(records.cellError(r)) * g.metres_per_fine);
+            const Mask& m = needed_[at];
+            if ((m[0] | m[1] | m[2] | m[3]) == 0)
+                continue;
+            height_slot_[at] = heights++;
+            if (special(x, y))
+                ruled_slot_[at] = ruled++;
+            if (r >= 0) {
+                bound_slot_[at] = static_cast<std::int32_t>(bound_cells_.size());
+                bound_cells_.push_back({x, y});
+            }
+        }
+    heights_.resize(static_cast<std::size_t>(heights) * kBlockVertices);
     ruled_.resize(static_cast<std::size_t>(ruled) * kBlockVertices);
     for (std::int32_t y = ry0_; y <= ry1; ++y)
         for (std::int32_t x = rx0_; x <= rx1; ++x) {
@@ -250,50 +345,56 @@ void BlockBounds::boundCell(std::int32_t cx, std::int32_t cy, int level) {
     const std::int32_t ox = cx * kLatticePerCell;
     const std::int32_t oy = cy * kLatticePerCell;
     const std::int32_t region = regionIndex(cx, cy);
+    const Mask& needed = needed_[static_cast<std::size_t>(region)];
     const auto slot = static_cast<std::size_t>(bound_slot_[static_cast<std::size_t>(region)]);
-    // a cell's heights as its block has them, and as the mesh's rules read them
-    const auto ruledOf = [&](std::int32_t at) {
-        const std::int32_t r = ruled_slot_[static_cast<std::size_t>(at)];
-        if (r >= 0)
-            return ruled_.data() + static_cast<std::size_t>(r) * kBlockVertices;
-        const std::int32_t h = height_slot_[static_cast<std::size_t>(at)];
-        TERRAIN_ASSERT(h >= 0);
-        return heights_.data() + static_cast<std::size_t>(h) * kBlockVertices;
-    };
+    // the 3 x 3 around: the heights as the mesh's rules read them, and the bounds
+    std::array<const std::int64_t*, 9> heights{};
+    std::array<std::int32_t, 9> bounds{};
+    std::array<float, 9> caps{};
+    for (std::int32_t dy = -1; dy <= 1; ++dy)
+        for (std::int32_t dx = -1; dx <= 1; ++dx) {
+            const std::size_t n = static_cast<std::size_t>(cellIndex(dx, dy));
+            const std::int32_t x = cx + dx;
+            const std::int32_t y = cy + dy;
+            heights[n] = nullptr;
+            bounds[n] = -1;
+            if (x >= rx0_ && y >= ry0_ && x < rx0_ + rw_ && y < ry0_ + rh_) {
+                const auto at = static_cast<std::size_t>(regionIndex(x, y));
+                if (const std::int32_t r = ruled_slot_[at]; r >= 0)
+                    heights[n] = ruled_.data() + static_cast<std::size_t>(r) * kBlockVertices;
+                else if (const std::int32_t h = height_slot_[at]; h >= 0)
+                    heights[n] = heights_.data() + static_cast<std::size_t>(h) * kBlockVertices;
+                bounds[n] = bound_slot_[at];
+                caps[n] = cell_caps_[at];
+            } else {
+                const std::int32_t r = records_->recordOf(x, y);
+                caps[n] = r < 0 ? 0.0f : roundUp(static_cast<double>(records_->cellError(r)) * mpf);
+            }
+        }
     const std::int64_t* own_raw =
         heights_.data() +
         static_cast<std::size_t>(height_slot_[static_cast<std::size_t>(region)]) * kBlockVertices;
-    const std::int64_t* own = ruledOf(region);
     // a cell of the padded grid (not a virtual one past it)
     const bool inner = cx <= g.grid_w - 2 && cy <= g.grid_h - 2;
     DiamondBounds* own_bounds = bounds_.data() + slot * kCellDiamonds;
     float* own_caps = caps_.data() + slot * kCellDiamonds;
     // a cell whose every neighbour's points are on the map needs no map checks
     const bool clear = cx >= 1 && cy >= 1 && cx <= g.grid_w - 3 && cy <= g.grid_h - 3;
-    const auto inside = [&](LocalDiamond::Offset q) {
+    const auto inside = [&](Offset q) {
         const std::int32_t x = ox + q[0];
         const std::int32_t y = oy + q[1];
         return clear || (x >= 0 && y >= 0 && x <= max_x && y <= max_y);
     };
-    const auto height = [&](LocalDiamond::Offset q) -> std::int64_t {
-        const std::int32_t dx = q[0] < 0 ? -1 : (q[0] > kLatticePerCell ? 1 : 0);
-        const std::int32_t dy = q[1] < 0 ? -1 : (q[1] > kLatticePerCell ? 1 : 0);
-        if ((dx | dy) == 0)
-            return own[q[1] * kSide + q[0]];
-        return ruledOf(regionIndex(
-            cx + dx,
-            cy + dy))[(q[1] - dy * kLatticePerCell) * kSide + (q[0] - dx * kLatticePerCell)];
+    const auto height = [&](const VertexRef& v) {
+        TERRAIN_ASSERT(heights[v.cell] != nullptr);
+        return heights[v.cell][v.index];
     };
-    const auto cell_cap = [&](std::int32_t x, std::int32_t y) {
-        if (x >= rx0_ && y >= ry0_ && x < rx0_ + rw_ && y < ry0_ + rh_)
-            return cell_caps_[static_cast<std::size_t>(regionIndex(x, y))];
-        const std::int32_t r = records_->recordOf(x, y);
-        return r < 0 ? 0.0f : roundUp(static_cast<double>(records_->cellError(r)) * mpf);
-    };
-    const float cap = cell_caps_[static_cast<std::size_t>(region)];
-    const float cap_left = std::max(cap, cell_cap(cx - 1, cy));
-    const float cap_below = std::max(cap, cell_cap(cx, cy - 1));
+    const float cap = caps[kOwnCell];
+    const float cap_left = std::max(cap, caps[static_cast<std::size_t>(cellIndex(-1, 0))]);
+    const float cap_below = std::max(cap, caps[static_cast<std::size_t>(cellIndex(0, -1))]);
     for (const LocalDiamond& d : tables().by_level[static_cast<std::size_t>(level)]) {
+        if (!test(needed, d.local))
+            continue; // no target's bound depends on it
         DiamondBounds& out = own_bounds[d.local];
         if (!inside({d.k, d.l})) {
             out = {};
@@ -303,16 +404,16 @@ void BlockBounds::boundCell(std::int32_t cx, std::int32_t cy, int level) {
         // its own vertices: the centre, the hypotenuse ends, the apexes on the map; a diamond
         // off the cell's borders has them all in the cell, as its block has them
         const bool in_block = inner && d.k != 0 && d.l != 0;
-        const auto vertex = [&](LocalDiamond::Offset q) {
-            return in_block ? own_raw[q[1] * kSide + q[0]] : height(q);
+        const auto vertex = [&](const VertexRef& v) {
+            return in_block ? own_raw[v.index] : height(v);
         };
-        const std::int64_t zc = vertex({d.k, d.l});
+        const std::int64_t zc = vertex(d.centre);
         const std::int64_t z0 = vertex(d.ends[0]);
         const std::int64_t z1 = vertex(d.ends[1]);
         std::int64_t own_lo = std::min({zc, z0, z1});
         std::int64_t own_hi = std::max({zc, z0, z1});
-        for (const auto& a : d.apexes)
-            if (in_block || inside(a)) {
+        for (const VertexRef& a : d.apexes)
+            if (in_block || inside(a.at)) {
                 const std::int64_t z = vertex(a);
                 own_lo = std::min(own_lo, z);
                 own_hi = std::max(own_hi, z);
@@ -325,32 +426,19 @@ void BlockBounds::boundCell(std::int32_t cx, std::int32_t cy, int level) {
         double hi = -kInfinity;
         if (level == kMaxDiamondLevel) {
             for (std::size_t i = 0; i < 2; ++i) {
-                if (!inside(d.apexes[i]))
+                if (!inside(d.apexes[i].at))
                     continue;
-                const std::int32_t r =
-                    records_->recordOf(cx + d.finest_cells[i][0], cy + d.finest_cells[i][1]);
+                const std::int32_t n = d.finest_cells[i];
+                const std::int32_t r = records_->recordOf(cx + n % 3 - 1, cy + n / 3 - 1);
                 if (r >= 0)
                     child = std::max(child, static_cast<double>(records_->finestError(r)) * mpf);
             }
         } else {
-            for (const auto& q : d.kids) {
-                if (!inside(q))
+            for (const ChildRef& c : d.kids) {
+                if (!inside(c.at))
                     continue;
-                const std::int32_t dx = q[0] < 0 ? -1 : (q[0] >= kLatticePerCell ? 1 : 0);
-                const std::int32_t dy = q[1] < 0 ? -1 : (q[1] >= kLatticePerCell ? 1 : 0);
-                std::int32_t s = static_cast<std::int32_t>(slot);
-                if ((dx | dy) != 0) {
-                    const std::int32_t x = cx + dx;
-                    const std::int32_t y = cy + dy;
-                    s = x >= rx0_ && y >= ry0_ && x < rx0_ + rw_ && y < ry0_ + rh_
-                            ? bound_slot_[static_cast<std::size_t>(regionIndex(x, y))]
-                            : -1;
-                }
-                const std::int32_t kk = q[0] - dx * kLatticePerCell;
-                const std::int32_t kl = q[1] - dy * kLatticePerCell;
-                if (s >= 0) {
-                    const std::size_t at = static_cast<std::size_t>(s) * kCellDiamonds +
-                                           static_cast<std::size_t>(kl * kLatticePerCell + kk);
+                if (const std::int32_t s = bounds[c.cell]; s >= 0) {
+                    const std::size_t at = static_cast<std::size_t>(s) * kCellDiamonds + c.local;
                     const DiamondBounds& b = bounds_[at];
                     lo = std::min(lo, static_cast<double>(b.zlo));
                     hi = std::max(hi, static_cast<double>(b.zhi));
@@ -358,24 +446,12 @@ void BlockBounds::boundCell(std::int32_t cx, std::int32_t cy, int level) {
                     child = std::max(child, static_cast<double>(b.delta));
                     continue;
                 }
-                // a cell without bounds here (no record: drawn with its base triangles, which
-                // are the surface; or past the window, which no target's bound reaches)
-                nested_cap = std::max(nested_cap, cell_cap(cx + dx, cy + dy));
-                const Diamond cd = diamondAt({ox + q[0], oy + q[1]});
-                for (const LatticePoint e : hypotenuseEnds(cd)) {
-                    const double z = static_cast<double>(height(
-                                         {static_cast<std::int8_t>(e.x - ox),
-                                          static_cast<std::int8_t>(e.y - oy)})) *
-                                     mpf;
-                    lo = std::min(lo, z);
-                    hi = std::max(hi, z);
-                }
-                for (const LatticePoint a : roam::apexes(cd)) {
-                    const LocalDiamond::Offset ao{
-                        static_cast<std::int8_t>(a.x - ox), static_cast<std::int8_t>(a.y - oy)};
-                    if (!inside(ao))
-                        continue;
-                    const double z = static_cast<double>(height(ao)) * mpf;
+                // a cell without a record: drawn with its base triangles, which are the surface
+                nested_cap = std::max(nested_cap, caps[c.cell]);
+                for (std::size_t j = 0; j < c.corners.size(); ++j) {
+                    if (j >= 2 && !inside(c.corners[j].at))
+                        continue; // an apex off the map
+                    const double z = static_cast<double>(height(c.corners[j])) * mpf;
                     lo = std::min(lo, z);
                     hi = std::max(hi, z);
                 }
@@ -403,6 +479,7 @@ void BlockBounds::heights(std::size_t i, std::span<std::int64_t, kBlockVertices>
 std::size_t BlockBounds::memoryBytes() const {
     return (height_slot_.capacity() + ruled_slot_.capacity() + bound_slot_.capacity()) *
                sizeof(std::int32_t) +
+           needed_.capacity() * sizeof(needed_[0]) +
            (heights_.capacity() + ruled_.capacity()) * sizeof(std::int64_t) +
            bounds_.capacity() * sizeof(DiamondBounds) +
            (caps_.capacity() + cell_caps_.capacity()) * sizeof(float) +

@@ -6,6 +6,8 @@ namespace terrain::roam {
 
 void CandidateHeap::resizeIds(
     std::size_t eager, const std::array<std::size_t, kPooledRanges>& pooled) {
+    if (eager > position_.capacity()) // an eighth to spare: the eager range is large
+        position_.reserve(eager + eager / 8);
     position_.resize(eager, -1);
     for (std::size_t r = 0; r < pooled.size(); ++r) {
         auto& p = pooled_position_[r];

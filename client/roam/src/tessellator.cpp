@@ -40,8 +40,12 @@ void Tessellator::adoptSpec() {
     tile_holes_.clear();
     tile_holes_.resize(tiles);
     tile_vertices_.assign(tiles, 0);
-    bounds_.clear();
-    state_.clear();
+    bounds_.assign(grid_count_, Bounds{});
+    bounds_.shrink_to_fit();
+    state_.assign(grid_count_, 0);
+    state_.shrink_to_fit();
+    centre_bounds_.clear();
+    centre_state_.clear();
     for (Grain& g : grains_)
         g = Grain{};
     block_chunks_.clear();
@@ -428,13 +432,14 @@ void Tessellator::setTau(double tau_pixels) {
 
 TessellatorMemory Tessellator::memory() const {
     TessellatorMemory m;
-    m.grid = bounds_.capacity() * sizeof(Bounds) + state_.capacity();
+    m.grid = (bounds_.capacity() + centre_bounds_.capacity()) * sizeof(Bounds) + state_.capacity() +
+             centre_state_.capacity();
     m.records = blocks_.memoryBytes() + block_chunks_.capacity() * sizeof(block_chunks_[0]);
     for (std::size_t g = 0; g < kGrains; ++g) {
         const Grain& grain = grains_[g];
-        m.grains[g] = grain.bounds.capacity() * sizeof(Bounds) +
-                      grain.cap.capacity() * sizeof(float) + grain.state.capacity() +
-                      grain.heights.capacity() * sizeof(std::int64_t) +
+        m.grains[g] = grain.bounds.capacity() * sizeof(Bounds) + grain.state.capacity() +
+                      grain.heights.capacity() * sizeof(std::uint32_t) +
+                      grain.base.capacity() * sizeof(std::int64_t) +
                       (grain.block.capacity() + grain.segment.capacity() + grain.free.capacity()) *
                           sizeof(std::int32_t) +
                       grain.used.capacity() * sizeof(std::uint64_t);

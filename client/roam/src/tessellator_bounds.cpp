@@ -141,15 +141,21 @@ void Tessellator::resizeDiamondState() {
             v.resize(n);
         };
         grow(grain.bounds, diamonds);
-        grow(grain.cap, diamonds);
         grow(grain.state, diamonds);
         grow(grain.heights, vertices);
+        grow(grain.base, chunks);
         pooled[g] = diamonds;
         TERRAIN_ASSERT(
             diamonds < CandidateHeap::kRangeBase[1] || (g == 2 && diamonds < (1u << 30)));
     }
-    bounds_.resize(eager);
-    state_.resize(eager, 0);
+    // records come a few at a time with ops: an eighth of them to spare, not a doubling
+    const auto records = static_cast<std::size_t>(blocks_.recordCapacity());
+    if (records > centre_bounds_.capacity()) {
+        centre_bounds_.reserve(records + records / 8);
+        centre_state_.reserve(records + records / 8);
+    }
+    centre_bounds_.resize(records);
+    centre_state_.resize(records, 0);
     heap_.resizeIds(eager, pooled);
 }
 
@@ -168,8 +174,7 @@ double Tessellator::childBounds(LatticePoint c, double& zlo, double& zhi, float&
         const Bounds& b = bounds(id);
         zlo = std::min(zlo, static_cast<double>(b.zlo));
         zhi = std::max(zhi, static_cast<double>(b.zhi));
-        if (id >= kPooled)
-            cap = std::max(cap, pooledCap(id));
+        TERRAIN_ASSERT(id < kPooled); // the grid's children are grid vertices and centres
         return b.delta;
     }
     cap = std::max(cap, cellCap(c.x / kLatticePerCell, c.y / kLatticePerCell));
@@ -372,19 +377,22 @@ void Tessellator::storeGrains(
             if (g == 0 && (local == 0 || local == kCentreLocal * kLatticePerCell + kCentreLocal))
                 continue; // the grid vertex and the (eager) centre
             const Bounds& b = block_bounds_.bounds(i, local);
-            const float cap = block_bounds_.cap(i, local);
             Bounds& stored = grain.bounds[base + slot];
-            const bool changed = stored.delta != b.delta || stored.zlo != b.zlo ||
-                                 stored.zhi != b.zhi || grain.cap[base + slot] != cap;
+            const bool changed =
+                stored.delta != b.delta || stored.zlo != b.zlo || stored.zhi != b.zhi;
             stored = b;
-            grain.cap[base + slot] = cap;
             if (changed && collect)
                 recomputed_.push_back(grainId(g, chunk, static_cast<std::uint32_t>(slot)));
         }
         const auto vertices = static_cast<std::size_t>(kGrainVertices[static_cast<std::size_t>(g)]);
+        const auto& local = tables.vertex_local[static_cast<std::size_t>(g)];
+        std::int64_t lowest = heights_scratch_[local[0]];
+        for (std::size_t v = 1; v < vertices; ++v)
+            lowest = std::min(lowest, heights_scratch_[local[v]]);
+        grain.base[idx(chunk)] = lowest;
         for (std::size_t v = 0; v < vertices; ++v)
             grain.heights[idx(chunk) * vertices + v] =
-                heights_scratch_[tables.vertex_local[static_cast<std::size_t>(g)][v]];
+                static_cast<std::uint32_t>(heights_scratch_[local[v]] - lowest);
     }
 }
 

@@ -19,6 +19,11 @@ std::int32_t Tessellator::tileOf(const Triangle& t) const {
     return (c3.y / (3 * kLatticePerTile)) * spec_.tilesX() + c3.x / (3 * kLatticePerTile);
 }
 
+std::uint32_t Tessellator::tileKey(const Triangle& t, std::int32_t tile) const {
+    return tileTriangleKey(
+        t, {(tile % spec_.tilesX()) * kLatticePerTile, (tile / spec_.tilesX()) * kLatticePerTile});
+}
+
 bool Tessellator::emitted(const Triangle& t) const {
     const std::int32_t min_x = std::min({t.apex.x, t.left.x, t.right.x});
     const std::int32_t min_y = std::min({t.apex.y, t.left.y, t.right.y});
@@ -91,12 +96,12 @@ void Tessellator::splitTriangles(const Diamond& d, bool split, bool forced) {
         TileMesh& mesh = tiles_[idx(tile)];
         if (split) {
             if (emitted(t)) {
-                [[maybe_unused]] const bool held = mesh.remove(triangleKey(t));
+                [[maybe_unused]] const bool held = mesh.remove(tileKey(t, tile));
                 TERRAIN_ASSERT(held); // every emitted leaf has a slot
             }
             for (const Triangle& h : halves)
                 if (emitted(h))
-                    mesh.add(triangleKey(h), indicesOf(h, tile));
+                    mesh.add(tileKey(h, tile), indicesOf(h, tile));
             ++mesh.counters().splits;
             if (forced)
                 ++mesh.counters().forced_splits;
@@ -105,12 +110,12 @@ void Tessellator::splitTriangles(const Diamond& d, bool split, bool forced) {
             for (const int i : {1, 0}) {
                 if (emitted(halves[static_cast<std::size_t>(i)])) {
                     [[maybe_unused]] const bool held =
-                        mesh.remove(triangleKey(halves[static_cast<std::size_t>(i)]));
+                        mesh.remove(tileKey(halves[static_cast<std::size_t>(i)], tile));
                     TERRAIN_ASSERT(held);
                 }
             }
             if (emitted(t))
-                mesh.add(triangleKey(t), indicesOf(t, tile));
+                mesh.add(tileKey(t, tile), indicesOf(t, tile));
             ++mesh.counters().merges;
         }
     }
@@ -249,7 +254,7 @@ void Tessellator::emitTriangle(const Triangle& t, std::int32_t tile, TileMesh& m
         return;
     }
     if (emitted(t))
-        mesh.add(triangleKey(t), indicesOf(t, tile));
+        mesh.add(tileKey(t, tile), indicesOf(t, tile));
 }
 
 Diamond Tessellator::tileRoot(std::int32_t tile) const {
@@ -351,7 +356,8 @@ TileVertex Tessellator::tileVertex(std::int32_t tile, std::uint32_t index) const
     const LatticePoint origin{c.x * kLatticePerCell, c.y * kLatticePerCell};
     return {
         {origin.x + local % kBlockSide, origin.y + local / kBlockSide},
-        grains_[g].heights[idx(seg.chunk) * static_cast<std::size_t>(kGrainVertices[g]) + slot],
+        grains_[g].base[idx(seg.chunk)] +
+            grains_[g].heights[idx(seg.chunk) * static_cast<std::size_t>(kGrainVertices[g]) + slot],
         origin};
 }
 

@@ -17,6 +17,7 @@ using namespace detail;
 
 void Tessellator::clearAllState() {
     std::fill(state_.begin(), state_.end(), std::uint8_t{0});
+    std::fill(centre_state_.begin(), centre_state_.end(), std::uint8_t{0});
     for (Grain& g : grains_)
         std::fill(g.state.begin(), g.state.end(), std::uint8_t{0});
 }
@@ -145,7 +146,8 @@ std::int32_t Tessellator::materialise(std::int32_t record) {
         return -1;
     }
     const std::int32_t block = blocks_.materialise(record);
-    resizeDiamondState();
+    if (idx(block) >= grains_[0].block.size()) // a new slot, not a free one
+        resizeDiamondState();
     block_chunks_[idx(block)] = {block, -1, -1};
     Grain& coarse = grains_[0];
     coarse.block[idx(block)] = block;

@@ -4,13 +4,13 @@
 
 namespace terrain::roam {
 
-std::size_t TileMesh::hashKey(std::uint64_t key) {
-    // splitmix64 finaliser: keys are structured coordinates
-    key ^= key >> 30;
-    key *= 0xbf58476d1ce4e5b9ull;
-    key ^= key >> 27;
-    key *= 0x94d049bb133111ebull;
-    key ^= key >> 31;
+std::size_t TileMesh::hashKey(std::uint32_t key) {
+    // murmur3's 32-bit finaliser: keys are structured coordinates
+    key ^= key >> 16;
+    key *= 0x85ebca6bu;
+    key ^= key >> 13;
+    key *= 0xc2b2ae35u;
+    key ^= key >> 16;
     return static_cast<std::size_t>(key);
 }
 
@@ -28,7 +28,7 @@ void TileMesh::clear() {
     ++counters_.rebuilds;
 }
 
-std::uint32_t TileMesh::find(std::uint64_t key) const {
+std::uint32_t TileMesh::find(std::uint32_t key) const {
     if (table_keys_.empty())
         return kEmpty;
     const std::size_t mask = table_keys_.size() - 1;
@@ -42,7 +42,7 @@ std::uint32_t TileMesh::find(std::uint64_t key) const {
 
 void TileMesh::growTable() {
     const std::size_t size = std::max<std::size_t>(64, table_keys_.size() * 2);
-    std::vector<std::uint64_t> keys(size, kNoKey);
+    std::vector<std::uint32_t> keys(size, kNoKey);
     std::vector<std::uint32_t> slots(size, 0);
     const std::size_t mask = size - 1;
     for (std::size_t j = 0; j < table_keys_.size(); ++j) {
@@ -58,8 +58,8 @@ void TileMesh::growTable() {
     table_slots_.swap(slots);
 }
 
-void TileMesh::insertKey(std::uint64_t key, std::uint32_t slot) {
-    if ((table_used_ + 1) * 2 > table_keys_.size())
+void TileMesh::insertKey(std::uint32_t key, std::uint32_t slot) {
+    if (std::size_t{table_used_ + 1} * 10 > table_keys_.size() * 7)
         growTable();
     const std::size_t mask = table_keys_.size() - 1;
     std::size_t i = hashKey(key) & mask;
@@ -70,7 +70,7 @@ void TileMesh::insertKey(std::uint64_t key, std::uint32_t slot) {
     ++table_used_;
 }
 
-void TileMesh::eraseKey(std::uint64_t key) {
+void TileMesh::eraseKey(std::uint32_t key) {
     const std::size_t mask = table_keys_.size() - 1;
     std::size_t i = hashKey(key) & mask;
     while (table_keys_[i] != key)
@@ -105,7 +105,7 @@ void TileMesh::write(std::uint32_t slot, const Indices& indices) {
     }
 }
 
-void TileMesh::add(std::uint64_t key, const Indices& indices) {
+void TileMesh::add(std::uint32_t key, const Indices& indices) {
     std::uint32_t slot = 0;
     if (!free_slots_.empty()) {
         slot = free_slots_.back();
@@ -121,7 +121,7 @@ void TileMesh::add(std::uint64_t key, const Indices& indices) {
     ++live_;
 }
 
-bool TileMesh::remove(std::uint64_t key) {
+bool TileMesh::remove(std::uint32_t key) {
     const std::uint32_t slot = find(key);
     if (slot == kEmpty)
         return false;
@@ -146,7 +146,7 @@ void TileMesh::fillHoles() {
             continue; // cut off with the end
         // the last triangle moves into the hole: one slot written, its key follows it
         const std::uint32_t last = slotCount() - 1;
-        const std::uint64_t key = keys_of_slots_[last];
+        const std::uint32_t key = keys_of_slots_[last];
         const Indices moved = {indices_[3 * last], indices_[3 * last + 1], indices_[3 * last + 2]};
         keys_of_slots_[hole] = key;
         write(hole, moved);

@@ -7,12 +7,13 @@
 // plus the largest of its children's bounds; the finest triangles start from the patch's grid
 // error) depends on its descendants, which reach into the cells around its own: the bounds of a
 // cell's 255 diamonds depend on the heights of its 3 x 3 cells and no further
-// (RoamMesh.LazyBoundsEqualBoundsBuiltForEveryCellAtOnce). So a pass takes every detail cell of
-// the targets' 3 x 3 windows, computes their heights (fillCellHeights, with the tessellator's
-// rules for the map's last lines), and their bounds level by level, finest first; each target's
-// bounds are then exact whatever else is resident. A bound is clamped to a nested cap (the
-// largest cellError of the cells its triangles and its children's touch), so a diamond's bound is
-// never above the conservative bound of the cell's centre, nor below a child's.
+// (RoamMesh.LazyBoundsEqualBoundsBuiltForEveryCellAtOnce). So a pass computes the heights of the
+// targets' 3 x 3 windows (fillCellHeights, with the tessellator's rules for the map's last
+// lines) and, level by level, finest first, the bounds of the diamonds the targets depend on (a
+// static table: a target's own 255 and its border diamonds' descendants in its neighbours);
+// each target's bounds are then exact whatever else is resident. A bound is clamped to a nested cap
+// (the largest cellError of the cells its triangles and its children's touch), so a diamond's bound
+// is never above the conservative bound of the cell's centre, nor below a child's.
 //
 // Heights are fine units (1/16 quantum), bounds metres (floats rounded outward). Pure: no GL,
 // no clocks, no I/O. Single-threaded; the scratch is reused between passes.
@@ -84,10 +85,12 @@ class BlockBounds {
     const Terrain* terrain_ = nullptr;
     const DetailBlocks* records_ = nullptr;
     BlockGeometry geometry_{};
-    std::int32_t rx0_ = 0; ///< region: the targets' bounding box, two cells wider
+    std::int32_t rx0_ = 0; ///< region: the targets' bounding box, a cell wider
     std::int32_t ry0_ = 0;
     std::int32_t rw_ = 0;
     std::int32_t rh_ = 0;
+    /// Per region cell: the diamonds some target's bounds depend on (a bit per local position).
+    std::vector<std::array<std::uint64_t, 4>> needed_;
     std::vector<std::int32_t> height_slot_; ///< per region cell: its heights in heights_, or -1
     std::vector<std::int32_t> ruled_slot_;  ///< per region cell: its heights in ruled_, or -1
     std::vector<std::int32_t> bound_slot_;  ///< per region cell: its bounds in bounds_, or -1

@@ -171,16 +171,18 @@ constexpr LatticePoint splitPoint(const Triangle& t) {
     return midpoint(t.left, t.right);
 }
 
-/// A key naming a triangle uniquely over the whole map (doubled hypotenuse midpoint, which is a
-/// half-lattice point for the finest triangles, plus the apex's direction from it).
-constexpr std::uint64_t triangleKey(const Triangle& t) {
+/// A key naming a triangle uniquely within its tile (whose lattice origin is `origin`): the
+/// doubled hypotenuse midpoint relative to the origin (0..2048 on each axis, 12 bits) and the
+/// apex's direction (4 bits), in 28 bits. Tile meshes keep their keys in half the memory.
+constexpr std::uint32_t tileTriangleKey(const Triangle& t, LatticePoint origin) {
     const std::int32_t mx2 = t.left.x + t.right.x;
     const std::int32_t my2 = t.left.y + t.right.y;
     const std::int32_t dx = 2 * t.apex.x - mx2;
     const std::int32_t dy = 2 * t.apex.y - my2;
-    const std::uint64_t dir = static_cast<std::uint64_t>((dx > 0) - (dx < 0) + 1) * 3 +
-                              static_cast<std::uint64_t>((dy > 0) - (dy < 0) + 1);
-    return (static_cast<std::uint64_t>(mx2) << 36) | (static_cast<std::uint64_t>(my2) << 8) | dir;
+    const std::uint32_t dir = static_cast<std::uint32_t>((dx > 0) - (dx < 0) + 1) * 3 +
+                              static_cast<std::uint32_t>((dy > 0) - (dy < 0) + 1);
+    return (static_cast<std::uint32_t>(mx2 - 2 * origin.x) << 16) |
+           (static_cast<std::uint32_t>(my2 - 2 * origin.y) << 4) | dir;
 }
 
 /// Three times the centroid, to find a triangle's tile or cell without fractions.

@@ -209,10 +209,12 @@ class Tessellator {
     using Bounds = DiamondBounds;
     /// The resident chunks of one grain of the blocks, and their diamonds and vertices.
     struct Grain {
-        std::vector<Bounds> bounds;        ///< per diamond slot of every chunk
-        std::vector<float> cap;            ///< the nested cap each bound was clamped to
-        std::vector<std::uint8_t> state;   ///< per diamond slot
-        std::vector<std::int64_t> heights; ///< per vertex slot of every chunk
+        std::vector<Bounds> bounds;      ///< per diamond slot of every chunk
+        std::vector<std::uint8_t> state; ///< per diamond slot
+        /// Per vertex slot of every chunk: the height (fine units) less its chunk's base. The
+        /// heights of one cell differ by far less than 2^32 fine units (262 km).
+        std::vector<std::uint32_t> heights;
+        std::vector<std::int64_t> base;    ///< per chunk: its lowest height (fine units)
         std::vector<std::int32_t> block;   ///< per chunk: its block, or -1 (free)
         std::vector<std::uint64_t> used;   ///< per chunk: the epoch it was last used in
         std::vector<std::int32_t> segment; ///< per chunk: its segment in its tile, or -1
@@ -257,23 +259,23 @@ class Tessellator {
                slot;
     }
     std::uint8_t& state(DiamondId id) {
-        if (id < kPooled)
+        if (id < grid_count_)
             return state_[id];
+        if (id < kPooled)
+            return centre_state_[id - grid_count_];
         const int g = grainOfId(id);
         return grains_[static_cast<std::size_t>(g)].state[pooledSlot(id, g)];
     }
     std::uint8_t state(DiamondId id) const { return const_cast<Tessellator*>(this)->state(id); }
     Bounds& bounds(DiamondId id) {
-        if (id < kPooled)
+        if (id < grid_count_)
             return bounds_[id];
+        if (id < kPooled)
+            return centre_bounds_[id - grid_count_];
         const int g = grainOfId(id);
         return grains_[static_cast<std::size_t>(g)].bounds[pooledSlot(id, g)];
     }
     const Bounds& bounds(DiamondId id) const { return const_cast<Tessellator*>(this)->bounds(id); }
-    float pooledCap(DiamondId id) const {
-        const int g = grainOfId(id);
-        return grains_[static_cast<std::size_t>(g)].cap[pooledSlot(id, g)];
-    }
     /// Marks the pooled id's chunk and block used in this epoch (never evicted in it).
     void markUsed(DiamondId id) {
         const int g = grainOfId(id);
@@ -362,6 +364,7 @@ class Tessellator {
     bool hasActiveChild(const Diamond& d) const;
     std::int32_t tileOf(const Triangle& t) const;
     bool emitted(const Triangle& t) const;
+    std::uint32_t tileKey(const Triangle& t, std::int32_t tile) const;
     TileMesh::Indices indicesOf(const Triangle& t, std::int32_t tile) const;
     void splitTriangles(const Diamond& d, bool split, bool forced);
     std::int64_t splitGain(const Diamond& d) const;
@@ -406,8 +409,10 @@ class Tessellator {
     DetailBlocks blocks_;
 
     // per diamond: eager ids, and pooled ones (by grain)
-    std::vector<Bounds> bounds_;
+    std::vector<Bounds> bounds_; ///< the grid's (sized once per world)
     std::vector<std::uint8_t> state_;
+    std::vector<Bounds> centre_bounds_; ///< per record (records come and go with ops)
+    std::vector<std::uint8_t> centre_state_;
     std::array<Grain, kGrains> grains_;
     /// Per block slot: its chunk of each grain, or -1 (grain 0's is the block itself).
     std::vector<std::array<std::int32_t, kGrains>> block_chunks_;

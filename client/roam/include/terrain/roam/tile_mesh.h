@@ -36,10 +36,11 @@ class TileMesh {
 
     /// Drops every triangle (a full rewrite follows).
     void clear();
-    void add(std::uint64_t key, const Indices& indices);
+    /// Keys name triangles within the tile (tileTriangleKey); 0xffffffff is not a key.
+    void add(std::uint32_t key, const Indices& indices);
     /// Frees the triangle's slot; false if the tile does not hold it.
-    bool remove(std::uint64_t key);
-    bool contains(std::uint64_t key) const { return find(key) != kEmpty; }
+    bool remove(std::uint32_t key);
+    bool contains(std::uint32_t key) const { return find(key) != kEmpty; }
     /// Moves the last triangles into the free slots and shortens the list (end of a frame).
     void fillHoles();
 
@@ -63,9 +64,9 @@ class TileMesh {
     std::size_t memoryBytes() const {
         return indices_.capacity() * sizeof(std::uint32_t) +
                dirty_pages_.capacity() * sizeof(std::uint32_t) + page_dirty_.capacity() +
-               keys_of_slots_.capacity() * sizeof(std::uint64_t) +
+               keys_of_slots_.capacity() * sizeof(std::uint32_t) +
                free_slots_.capacity() * sizeof(std::uint32_t) +
-               table_keys_.capacity() * sizeof(std::uint64_t) +
+               table_keys_.capacity() * sizeof(std::uint32_t) +
                table_slots_.capacity() * sizeof(std::uint32_t);
     }
 
@@ -74,20 +75,20 @@ class TileMesh {
 
   private:
     static constexpr std::uint32_t kEmpty = 0xffffffffu;
-    static constexpr std::uint64_t kNoKey = ~std::uint64_t{0};
+    static constexpr std::uint32_t kNoKey = 0xffffffffu;
 
-    std::uint32_t find(std::uint64_t key) const;
-    void insertKey(std::uint64_t key, std::uint32_t slot);
-    void eraseKey(std::uint64_t key);
+    std::uint32_t find(std::uint32_t key) const;
+    void insertKey(std::uint32_t key, std::uint32_t slot);
+    void eraseKey(std::uint32_t key);
     void growTable();
     void write(std::uint32_t slot, const Indices& indices);
-    static std::size_t hashKey(std::uint64_t key);
+    static std::size_t hashKey(std::uint32_t key);
 
     std::vector<std::uint32_t> indices_;
-    std::vector<std::uint64_t> keys_of_slots_; ///< kNoKey for a free slot
+    std::vector<std::uint32_t> keys_of_slots_; ///< kNoKey for a free slot
     std::vector<std::uint32_t> free_slots_;
-    // open addressing, linear probing, backward-shift deletion
-    std::vector<std::uint64_t> table_keys_;
+    // open addressing, linear probing, backward-shift deletion; at most 70 % full
+    std::vector<std::uint32_t> table_keys_;
     std::vector<std::uint32_t> table_slots_;
     std::uint32_t table_used_ = 0;
     std::uint32_t live_ = 0;
