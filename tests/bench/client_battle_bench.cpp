@@ -12,6 +12,7 @@
 // Exit status: 0; 1 when a replica hash differs from the authority's; 2 on a bad option.
 
 #include "support/bench_facts.h"
+#include "support/tessellator_memory.h"
 
 #include <terrain/battle.h>
 #include <terrain/client/replica.h>
@@ -247,19 +248,7 @@ int main(int argc, char** argv) {
              {"evicted", evicted},
              {"refusals", pool_refusals}}},
         {"tessellator_mib", tess_mib},
-        {"tessellator_memory_mib",
-         Json{
-             {"grid", bench::mib(tess.memory().grid)},
-             {"records", bench::mib(tess.memory().records)},
-             {"grains",
-              Json::array(
-                  {bench::mib(tess.memory().grains[0]), bench::mib(tess.memory().grains[1]),
-                   bench::mib(tess.memory().grains[2])})},
-             {"grain_chunks",
-              Json::array({tess.grainCounts()[0], tess.grainCounts()[1], tess.grainCounts()[2]})},
-             {"heap", bench::mib(tess.memory().heap)},
-             {"meshes", bench::mib(tess.memory().meshes)},
-             {"scratch", bench::mib(tess.memory().scratch)}}},
+        {"tessellator_memory_mib", bench::tessellatorMemoryJson(tess)},
         {"rss_mib", rss_mib},
         {"goals", Json{
                       {"crater_p50_le_1ms", single.p50 <= 1.0},
@@ -286,14 +275,7 @@ int main(int argc, char** argv) {
         bench::summarize(error_bound).p50, bench::summarize(error_bound).max, threshold_moves,
         bench::summarize(triangles).p50, bench::summarize(triangles).max, tess_mib, rss_mib,
         first_frame_ms, hashes_agree ? "agree" : "DIFFER");
-    const roam::TessellatorMemory mem = tess.memory();
-    const auto grains = tess.grainCounts();
-    std::printf(
-        "  tessellator MiB: grid %.1f, records %.1f, grains %.1f / %.1f / %.1f (%d / %d / %d "
-        "chunks), heap %.1f, meshes %.1f, scratch %.1f\n",
-        bench::mib(mem.grid), bench::mib(mem.records), bench::mib(mem.grains[0]),
-        bench::mib(mem.grains[1]), bench::mib(mem.grains[2]), grains[0], grains[1], grains[2],
-        bench::mib(mem.heap), bench::mib(mem.meshes), bench::mib(mem.scratch));
+    bench::printTessellatorMemory(tess);
     std::printf(
         "  detail blocks: %d cells, pool %d, resident %d, in use p50 %.0f max %.0f; "
         "materialised %lld, evicted %lld, refusals %lld\n",

@@ -10,6 +10,7 @@
 // Exit status: 0; 2 on a bad option or a missing DEM when one was asked for.
 
 #include "support/bench_facts.h"
+#include "support/tessellator_memory.h"
 
 #include <terrain/client/replica.h>
 #include <terrain/io/dem_import.h>
@@ -135,6 +136,7 @@ int main(int argc, char** argv) {
         {"triangles", fs.triangles},
         {"detail_blocks", tess.blockCount()},
         {"tessellator_mib", tess_mib},
+        {"tessellator_memory_mib", bench::tessellatorMemoryJson(tess)},
         {"rss_mib", rss_mib},
         {"rss_before_join_mib", bench::mib(rss_before)},
         {"goals", {{"join_le_1s", join_ms <= 1000.0}, {"tessellator_le_64mb", tess_mib <= 64.0}}}};
@@ -147,6 +149,7 @@ int main(int argc, char** argv) {
         bench::mib(bytes.size()), join_ms, decode_ms, build_ms, frame_ms,
         static_cast<long long>(fs.triangles), tess_mib, tess.blockCount(), rss_mib,
         bench::mib(rss_before));
+    bench::printTessellatorMemory(tess);
     if (!out.empty()) {
         std::ofstream file(out);
         if (!file) {

@@ -73,6 +73,10 @@ void DetailBlocks::reset(const Terrain& t) {
     // to the cell on its +x / +y side, so a patch on an unpadded border needs a record there
     cells_x_ = t.spec().paddedWidth();
     cells_y_ = t.spec().paddedHeight();
+    // a record packs its cell's index in 31 bits (kMaxMapVertices per side keeps far below)
+    TERRAIN_ASSERT(
+        std::uint64_t{static_cast<std::uint32_t>(cells_x_)} * static_cast<std::uint32_t>(cells_y_) <
+        kPatchBit);
     record_of_cell_.assign(
         static_cast<std::size_t>(cells_x_) * static_cast<std::size_t>(cells_y_), -1);
     records_.clear();
@@ -170,13 +174,13 @@ std::int32_t DetailBlocks::takeRecord(std::int32_t cx, std::int32_t cy) {
         records_.emplace_back();
     }
     records_[idx(r)] = {};
-    records_[idx(r)].cell = {cx, cy};
+    records_[idx(r)].cell = static_cast<std::uint32_t>(cellIndex(cx, cy));
     record_of_cell_[cellIndex(cx, cy)] = r;
     return r;
 }
 
 void DetailBlocks::dropRecord(std::int32_t r) {
-    const CellXY c = records_[idx(r)].cell;
+    const CellXY c = recordCell(r);
     record_of_cell_[cellIndex(c.x, c.y)] = -1;
     records_[idx(r)] = {};
     free_records_.push_back(r);
@@ -184,18 +188,19 @@ void DetailBlocks::dropRecord(std::int32_t r) {
 
 void DetailBlocks::summarise(const Terrain& t, std::int32_t r) {
     Record& rec = records_[idx(r)];
+    const CellXY cell = recordCell(r);
+    rec.cell &= ~kPatchBit;
     const std::int32_t last_x = t.spec().paddedWidth() - 2; // last cell of the padded grid
     const std::int32_t last_y = t.spec().paddedHeight() - 2;
-    rec.has_patch = false;
     rec.finest_error = 0.0f;
     rec.cell_error = 0.0f;
     rec.lo = 0.0f;
     rec.hi = 0.0f;
-    if (rec.cell.x > last_x || rec.cell.y > last_y)
+    if (cell.x > last_x || cell.y > last_y)
         return; // a virtual cell: no surface of its own
-    const bool real = rec.cell.x < t.spec().cellsX() && rec.cell.y < t.spec().cellsY();
-    const DetailPatch* patch = real ? t.findPatch(rec.cell.x, rec.cell.y) : nullptr;
-    const CellCorners c = t.corners(rec.cell.x, rec.cell.y);
+    const bool real = cell.x < t.spec().cellsX() && cell.y < t.spec().cellsY();
+    const DetailPatch* patch = real ? t.findPatch(cell.x, cell.y) : nullptr;
+    const CellCorners c = t.corners(cell.x, cell.y);
     std::int64_t lo = std::int64_t{std::min({c.h00, c.h10, c.h01, c.h11})} * kFineUnitsPerQuantum;
     std::int64_t hi = std::int64_t{std::max({c.h00, c.h10, c.h01, c.h11})} * kFineUnitsPerQuantum;
     if (patch == nullptr) { // vertices exactly on the base triangles, which are the surface
@@ -203,7 +208,7 @@ void DetailBlocks::summarise(const Terrain& t, std::int32_t r) {
         rec.hi = roundedUp(hi);
         return;
     }
-    rec.has_patch = true;
+    rec.cell |= kPatchBit;
     // the bound already allows half a quantum of rounding; ours is 1/32
     rec.finest_error = patch->grid_error_bound * static_cast<float>(kFineUnitsPerQuantum);
     const std::int64_t dev =

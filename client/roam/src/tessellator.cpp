@@ -44,7 +44,6 @@ void Tessellator::adoptSpec() {
     bounds_.shrink_to_fit();
     state_.assign(grid_count_, 0);
     state_.shrink_to_fit();
-    centre_bounds_.clear();
     centre_state_.clear();
     for (Grain& g : grains_)
         g = Grain{};
@@ -73,7 +72,8 @@ void Tessellator::evaluate(const ViewMetric& m, DiamondId id, FrameStats& stats)
         heap_.remove(id);
     const Diamond d = diamondAt(pointOf(id));
     ++stats.evaluations;
-    const Box box = boxOf(d, id);
+    const Bounds bounds_of = bounds(id);
+    const Box box = boxOf(d, bounds_of);
     const double tau = threshold_;
     if (box.lo.x > box.hi.x) {
         // wholly in the padding: never worth a triangle
@@ -81,7 +81,7 @@ void Tessellator::evaluate(const ViewMetric& m, DiamondId id, FrameStats& stats)
             merges_.push_back({0.0, id});
         return;
     }
-    const double delta = bounds(id).delta;
+    const double delta = bounds_of.delta;
     const double distance = m.distanceTo(box);
     const double any = m.screenErrorAtDistance(distance, delta);
     const double p = any > tau && !m.intersectsFrustum(box) ? 0.0 : any;
@@ -263,7 +263,7 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
                       static_cast<std::size_t>(sweep_phase_ * static_cast<double>(heap_.size())));
         if ((state(e.id) & kMergeCandidate) == 0 || e.key <= travel_)
             continue;
-        const Box box = boxOf(diamondAt(pointOf(e.id)), e.id);
+        const Box box = boxOf(diamondAt(pointOf(e.id)), bounds(e.id));
         if (box.lo.x > box.hi.x || !m.intersectsFrustum(box))
             due_.push_back(e.id); // taken out of the heap below, so the sweep skips no entry
     }
@@ -432,7 +432,7 @@ void Tessellator::setTau(double tau_pixels) {
 
 TessellatorMemory Tessellator::memory() const {
     TessellatorMemory m;
-    m.grid = (bounds_.capacity() + centre_bounds_.capacity()) * sizeof(Bounds) + state_.capacity() +
+    m.grid = (bounds_.capacity() + centre_cache_.capacity()) * sizeof(Bounds) + state_.capacity() +
              centre_state_.capacity();
     m.records = blocks_.memoryBytes() + block_chunks_.capacity() * sizeof(block_chunks_[0]);
     for (std::size_t g = 0; g < kGrains; ++g) {

@@ -150,11 +150,8 @@ void Tessellator::resizeDiamondState() {
     }
     // records come a few at a time with ops: an eighth of them to spare, not a doubling
     const auto records = static_cast<std::size_t>(blocks_.recordCapacity());
-    if (records > centre_bounds_.capacity()) {
-        centre_bounds_.reserve(records + records / 8);
+    if (records > centre_state_.capacity())
         centre_state_.reserve(records + records / 8);
-    }
-    centre_bounds_.resize(records);
     centre_state_.resize(records, 0);
     heap_.resizeIds(eager, pooled);
 }
@@ -162,7 +159,8 @@ void Tessellator::resizeDiamondState() {
 // ---- error bounds -------------------------------------------------------------------------
 
 bool Tessellator::storeBounds(DiamondId id, float delta, float zlo, float zhi) {
-    Bounds& b = bounds(id);
+    TERRAIN_ASSERT(id < grid_count_);
+    Bounds& b = bounds_[id];
     const bool changed = b.delta != delta || b.zlo != zlo || b.zhi != zhi;
     b = {delta, zlo, zhi};
     return changed;
@@ -171,7 +169,7 @@ bool Tessellator::storeBounds(DiamondId id, float delta, float zlo, float zhi) {
 double Tessellator::childBounds(LatticePoint c, double& zlo, double& zhi, float& cap) const {
     const DiamondId id = idOf(c);
     if (id != kNoDiamond) {
-        const Bounds& b = bounds(id);
+        const Bounds b = bounds(id);
         zlo = std::min(zlo, static_cast<double>(b.zlo));
         zhi = std::max(zhi, static_cast<double>(b.zhi));
         TERRAIN_ASSERT(id < kPooled); // the grid's children are grid vertices and centres
@@ -264,19 +262,18 @@ float Tessellator::cellCap(std::int32_t cx, std::int32_t cy) const {
     return roundUp(static_cast<double>(blocks_.cellError(r)) * metres_per_fine_);
 }
 
-bool Tessellator::computeCentreBounds(std::int32_t record) {
+Tessellator::Bounds Tessellator::centreBounds(std::int32_t record) const {
     // the centre's triangles are the cell's base triangles, and its descendants (children across
     // the cell's borders, theirs shrinking towards its corners) lie in the 3 x 3 cells around
     // it: any triangle there is within the cellError of its cell, and every vertex within its
-    // cell's range (DetailBlocks::summarise)
+    // cell's range (DetailBlocks::summarise). Derived, not stored: records are many.
     const DetailBlocks::CellXY c = blocks_.recordCell(record);
-    const DiamondId id = centreId(record);
     if (c.x > grid_w_ - 2 || c.y > grid_h_ - 2)
-        return storeBounds(id, 0.0f, 0.0f, 0.0f); // a virtual cell's centre is off the map
+        return {}; // a virtual cell's centre is off the map
     const WindowBound w = windowBound(c.x, c.y);
-    return storeBounds(
-        id, w.cap, roundDown(w.lo * metres_per_fine_ - w.cap),
-        roundUp(w.hi * metres_per_fine_ + w.cap));
+    return {
+        w.cap, roundDown(w.lo * metres_per_fine_ - w.cap),
+        roundUp(w.hi * metres_per_fine_ + w.cap)};
 }
 
 Tessellator::WindowBound Tessellator::windowBound(std::int32_t cx, std::int32_t cy) const {
@@ -417,19 +414,23 @@ void Tessellator::recomputeBounds(CellRect cells, bool all, bool collect) {
     }
     if (!pass_.empty())
         boundBlocks(pass_, collect);
-    auto centre = [&](std::int32_t r) {
-        if (computeCentreBounds(r) && collect)
-            recomputed_.push_back(centreId(r));
-    };
+    // the centres' bounds follow from the records; their candidates are re-examined
     if (all) {
+        // the grid pass reads every centre about four times: each is computed once for it
+        centre_cache_.resize(static_cast<std::size_t>(blocks_.recordCapacity()));
         for (std::int32_t r = 0; r < blocks_.recordCapacity(); ++r)
-            if (blocks_.recordInUse(r))
-                centre(r);
-    } else {
-        for (std::int32_t cy = around.y0; cy <= around.y1; ++cy)
-            for (std::int32_t cx = around.x0; cx <= around.x1; ++cx)
-                if (const std::int32_t r = blocks_.recordOf(cx, cy); r >= 0)
-                    centre(r);
+            centre_cache_[idx(r)] = blocks_.recordInUse(r) ? centreBounds(r) : Bounds{};
+    } else if (collect) {
+        // terrainChanged() kept their bounds from before the change
+        std::size_t i = 0;
+        for (std::int32_t cy = centre_rect_.y0; cy <= centre_rect_.y1; ++cy)
+            for (std::int32_t cx = centre_rect_.x0; cx <= centre_rect_.x1; ++cx, ++i)
+                if (const std::int32_t r = blocks_.recordOf(cx, cy); r >= 0) {
+                    const Bounds before = centre_before_[i];
+                    const Bounds now = centreBounds(r);
+                    if (before.delta != now.delta || before.zlo != now.zlo || before.zhi != now.zhi)
+                        recomputed_.push_back(centreId(r));
+                }
     }
     const std::int32_t lx0 = all ? 0 : around.x0 * kLatticePerCell;
     const std::int32_t ly0 = all ? 0 : around.y0 * kLatticePerCell;
@@ -452,9 +453,10 @@ void Tessellator::recomputeBounds(CellRect cells, bool all, bool collect) {
                     recomputed_.push_back(id);
             }
     }
+    std::vector<Bounds>().swap(centre_cache_);
 }
 
-Box Tessellator::boxOf(const Diamond& d, DiamondId id) const {
+Box Tessellator::boxOf(const Diamond& d, const Bounds& bounds) const {
     const std::int32_t r = subtreeReach(d);
     // only the real map is drawn; padding contributes nothing
     const std::int32_t x0 = std::max(d.centre.x - r, 0);
@@ -462,18 +464,19 @@ Box Tessellator::boxOf(const Diamond& d, DiamondId id) const {
     const std::int32_t x1 = std::min(d.centre.x + r, real_x_);
     const std::int32_t y1 = std::min(d.centre.y + r, real_y_);
     Box b;
-    b.lo = {x0 * metres_per_lattice_, y0 * metres_per_lattice_, bounds(id).zlo};
-    b.hi = {x1 * metres_per_lattice_, y1 * metres_per_lattice_, bounds(id).zhi};
+    b.lo = {x0 * metres_per_lattice_, y0 * metres_per_lattice_, bounds.zlo};
+    b.hi = {x1 * metres_per_lattice_, y1 * metres_per_lattice_, bounds.zhi};
     if (x0 >= x1 || y0 >= y1)
         b.lo.x = b.hi.x + 1.0; // empty
     return b;
 }
 
 double Tessellator::priority(const ViewMetric& m, const Diamond& d, DiamondId id) const {
-    const Box b = boxOf(d, id);
+    const Bounds bounds_of = bounds(id);
+    const Box b = boxOf(d, bounds_of);
     if (b.lo.x > b.hi.x)
         return 0.0;
-    return m.screenError(b, bounds(id).delta);
+    return m.screenError(b, bounds_of.delta);
 }
 
 double Tessellator::recordPriority(const ViewMetric& m, const Diamond& d) const {

@@ -422,14 +422,24 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
             clearCandidate(centreId(record));
             state(centreId(record)) = 0;
         }
+        // the centres' bounds before (they are derived, not stored): only those that move are
+        // re-examined. A centre's bound reads the records of its 3 x 3 cells, and records
+        // change in the rectangle and appear or go one cell around it.
+        centre_rect_ = {
+            std::max(0, r.x0 - 2), std::max(0, r.y0 - 2), std::min(blocks_.cellsX() - 1, r.x1 + 2),
+            std::min(blocks_.cellsY() - 1, r.y1 + 2)};
+        centre_before_.clear();
+        for (std::int32_t cy = centre_rect_.y0; cy <= centre_rect_.y1; ++cy)
+            for (std::int32_t cx = centre_rect_.x0; cx <= centre_rect_.x1; ++cx) {
+                const std::int32_t rec = blocks_.recordOf(cx, cy);
+                centre_before_.push_back(rec < 0 ? Bounds{-1.0f, 0.0f, 0.0f} : centreBounds(rec));
+            }
         removed_.clear();
         added_.clear();
         blocks_.update(*terrain_, r, removed_, added_);
         resizeDiamondState();
-        for (const std::int32_t record : added_) {
+        for (const std::int32_t record : added_)
             state(centreId(record)) = 0;
-            bounds(centreId(record)).delta = -1.0f; // no bound yet: recomputeBounds must see it
-        }
         // heights moved in these tiles
         for (std::int32_t ty = std::max(0, r.y0) / kTileCells;
              ty <= std::min(r.y1 / kTileCells, spec_.tilesY() - 1); ++ty)

@@ -80,9 +80,11 @@ class DetailBlocks {
     std::int32_t recordCount() const {
         return recordCapacity() - static_cast<std::int32_t>(free_records_.size());
     }
-    bool recordInUse(std::int32_t r) const { return records_[idx(r)].cell.x >= 0; }
-    CellXY recordCell(std::int32_t r) const { return records_[idx(r)].cell; }
-    bool hasPatch(std::int32_t r) const { return records_[idx(r)].has_patch; }
+    bool recordInUse(std::int32_t r) const { return records_[idx(r)].cell != kNoCell; }
+    CellXY recordCell(std::int32_t r) const { return cellAt(records_[idx(r)].cell); }
+    bool hasPatch(std::int32_t r) const {
+        return recordInUse(r) && (records_[idx(r)].cell & kPatchBit) != 0;
+    }
     /// Bound (fine units) on the distance between the true surface of the cell and any triangle
     /// of the finest level on its vertices (0 without a patch: they lie on it).
     float finestError(std::int32_t r) const { return records_[idx(r)].finest_error; }
@@ -117,20 +119,27 @@ class DetailBlocks {
     /// The block's cell (x, y); (-1, -1) for a free slot.
     CellXY cellOf(std::int32_t block) const {
         const std::int32_t r = record_of_block_[idx(block)];
-        return r < 0 ? CellXY{} : records_[idx(r)].cell;
+        return r < 0 ? CellXY{} : cellAt(records_[idx(r)].cell);
     }
     std::size_t memoryBytes() const;
 
   private:
-    struct Record { // 32 bytes: one per detail cell of the world
-        CellXY cell;
+    struct Record { // 24 bytes: one per detail cell of the world
+        /// cy * cellsX() + cx, with kPatchBit set if the cell has a patch; kNoCell when free.
+        std::uint32_t cell = kNoCell;
         std::int32_t block = -1;
         float finest_error = 0.0f;
         float cell_error = 0.0f;
         float lo = 0.0f;
         float hi = 0.0f;
-        bool has_patch = false;
     };
+    static constexpr std::uint32_t kNoCell = 0xffffffffu;
+    static constexpr std::uint32_t kPatchBit = 0x80000000u; // maps hold fewer than 2^31 cells
+    CellXY cellAt(std::uint32_t packed) const {
+        const std::uint32_t i = packed & ~kPatchBit;
+        const auto w = static_cast<std::uint32_t>(cells_x_);
+        return {static_cast<std::int32_t>(i % w), static_cast<std::int32_t>(i / w)};
+    }
 
     static std::size_t idx(std::int32_t v) { return static_cast<std::size_t>(v); }
     std::size_t cellIndex(std::int32_t cx, std::int32_t cy) const {

@@ -267,15 +267,19 @@ class Tessellator {
         return grains_[static_cast<std::size_t>(g)].state[pooledSlot(id, g)];
     }
     std::uint8_t state(DiamondId id) const { return const_cast<Tessellator*>(this)->state(id); }
-    Bounds& bounds(DiamondId id) {
+    /// A diamond's bounds: stored for the grid's and the blocks' diamonds; a centre's come from
+    /// the records of its 3 x 3 cells (cached while a whole-map pass runs).
+    Bounds bounds(DiamondId id) const {
         if (id < grid_count_)
             return bounds_[id];
-        if (id < kPooled)
-            return centre_bounds_[id - grid_count_];
+        if (id < kPooled) {
+            const auto record = static_cast<std::int32_t>(id - grid_count_);
+            return centre_cache_.empty() ? centreBounds(record) : centre_cache_[idx(record)];
+        }
         const int g = grainOfId(id);
         return grains_[static_cast<std::size_t>(g)].bounds[pooledSlot(id, g)];
     }
-    const Bounds& bounds(DiamondId id) const { return const_cast<Tessellator*>(this)->bounds(id); }
+    Bounds centreBounds(std::int32_t record) const;
     /// Marks the pooled id's chunk and block used in this epoch (never evicted in it).
     void markUsed(DiamondId id) {
         const int g = grainOfId(id);
@@ -317,7 +321,7 @@ class Tessellator {
     // bounds
     /// Both return whether the diamond's bounds changed; `cap` (metres) clamps the delta.
     bool computeBounds(const Diamond& d, DiamondId id, float cap);
-    bool computeCentreBounds(std::int32_t record);
+    /// Stores a grid diamond's bounds; whether they changed.
     bool storeBounds(DiamondId id, float delta, float zlo, float zhi);
     bool finishBounds(
         DiamondId id,
@@ -347,7 +351,7 @@ class Tessellator {
     /// depend on them, centres, then the grid, finest level first; with `collect`, the ids of
     /// those whose bounds changed go to recomputed_ (candidates to refresh).
     void recomputeBounds(CellRect cells, bool all, bool collect);
-    Box boxOf(const Diamond& d, DiamondId id) const;
+    Box boxOf(const Diamond& d, const Bounds& b) const;
     double priority(const ViewMetric& m, const Diamond& d, DiamondId id) const;
     /// An upper bound on priority() for a diamond whose block is not resident, from its cells'
     /// records (no heights needed).
@@ -411,8 +415,11 @@ class Tessellator {
     // per diamond: eager ids, and pooled ones (by grain)
     std::vector<Bounds> bounds_; ///< the grid's (sized once per world)
     std::vector<std::uint8_t> state_;
-    std::vector<Bounds> centre_bounds_; ///< per record (records come and go with ops)
-    std::vector<std::uint8_t> centre_state_;
+    std::vector<std::uint8_t> centre_state_; ///< per record (records come and go with ops)
+    std::vector<Bounds> centre_cache_;       ///< every centre's bounds, during a whole-map pass
+    /// The centres' bounds over centre_rect_ before an op's change (delta -1: no record).
+    std::vector<Bounds> centre_before_;
+    CellRect centre_rect_{};
     std::array<Grain, kGrains> grains_;
     /// Per block slot: its chunk of each grain, or -1 (grain 0's is the block itself).
     std::vector<std::array<std::int32_t, kGrains>> block_chunks_;
