@@ -7,7 +7,12 @@
 //   update  Tessellator::update for the frame's camera
 // One op arrives per frame, except every --burst-every frames, when --burst ops arrive at once.
 // Flights: "hover" (60 m above the zone, circling it, looking in), "cross" (10 m above the
-// ground, 20 m/s at 60 frames/s, across the zone and back).
+// ground, 20 m/s at 60 frames/s, across the zone and back). --join-after K: the client joins
+// after the first K shots (a late joiner) and receives the rest; --frames: fly at least this many
+// frames (after the ops run out). --render draws every frame through OSMesa (sync + draw timed
+// as `render`), with --frame-ms steering the triangle cap as the bot does. The authority is gone
+// before the client starts, so the process's resident set is the client's (with the ops it
+// will receive).
 // The goals (client battle budget) are reported as met / not met, never asserted.
 // Exit status: 0; 1 when a replica hash differs from the authority's; 2 on a bad option.
 
@@ -15,9 +20,12 @@
 #include "support/tessellator_memory.h"
 
 #include <terrain/battle.h>
+#include <terrain/client/frame_budget.h>
 #include <terrain/client/replica.h>
 #include <terrain/client/tessellation_feed.h>
 #include <terrain/procedural_map.h>
+#include <terrain/render/offscreen.h>
+#include <terrain/render/terrain_renderer.h>
 #include <terrain/roam/camera.h>
 #include <terrain/roam/tessellator.h>
 #include <terrain/snapshot.h>
@@ -31,6 +39,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -94,6 +103,10 @@ int main(int argc, char** argv) {
     int width = 1280;
     int height = 720;
     std::string flight = "hover";
+    int join_after = 0;
+    int min_frames = 0;
+    bool render = false;
+    double frame_target_ms = 0.0;
     ProceduralMapOptions map;
     BattleOptions o;
     std::string out;
@@ -114,31 +127,51 @@ int main(int argc, char** argv) {
     app.add_option("--map-size", map.width, "procedural map size in vertices")
         ->check(CLI::Range(65, 8193));
     app.add_option("--seed", o.seed, "battle seed");
+    app.add_option("--join-after", join_after, "shots before the client joins (a late joiner)")
+        ->check(CLI::NonNegativeNumber);
+    app.add_option("--frames", min_frames, "frames to fly at least (after the ops run out)")
+        ->check(CLI::NonNegativeNumber);
+    app.add_flag("--render", render, "draw every frame offscreen (OSMesa)");
+    app.add_option(
+           "--frame-ms", frame_target_ms,
+           "frame time the triangle cap is steered to hold, as the bot does (0: off)")
+        ->check(CLI::NonNegativeNumber);
     app.add_option("--out", out, "JSON report");
     CLI11_PARSE(app, argc, argv);
 
     map.height = map.width;
-    Terrain authority = std::move(*makeProceduralMap(map));
+    auto made_map = makeProceduralMap(map);
+    auto held = std::make_unique<Terrain>(std::move(*made_map));
+    Terrain& authority = *held;
     const WorldSpec& spec = authority.spec();
     o.zone_x = spec.extentX() / 2;
     o.zone_y = spec.extentY() / 2;
-    const std::vector<std::uint8_t> snapshot = encodeSnapshot(authority, 0);
+    std::vector<std::uint8_t> snapshot;
+    if (join_after == 0)
+        snapshot = encodeSnapshot(authority, 0);
 
     // the authority's side, untimed: the ops and the hash each produced
     std::vector<SentOp> sent;
     BattleGenerator generator(o);
     for (int i = 0; i < shots; ++i) {
         const BattleShot shot = generator.next(authority);
-        if (!shot.crater)
-            continue;
-        auto op = quantizeOp(*shot.crater, spec);
-        if (!op || !authority.apply(*op))
-            continue;
-        sent.push_back({*op, authority.worldHash()});
+        if (shot.crater) {
+            auto op = quantizeOp(*shot.crater, spec);
+            if (op && authority.apply(*op))
+                sent.push_back({*op, authority.worldHash()});
+        }
+        if (i + 1 == join_after) {
+            snapshot = encodeSnapshot(authority, 0);
+            sent.clear(); // in the snapshot
+        }
     }
+    const std::uint64_t final_hash = authority.worldHash();
+    const BattleOptions battle = o;
+    held.reset(); // the client's process holds its replica, not the server's world
 
     client::Replica replica;
     replica.loadSnapshot(std::move(*decodeSnapshot(snapshot)));
+    std::vector<std::uint8_t>().swap(snapshot);
     replica.takeDirty();
     roam::TessellatorOptions to;
     to.tau_pixels = tau;
@@ -146,8 +179,32 @@ int main(int argc, char** argv) {
     to.max_detail_blocks = max_blocks;
     const auto build_start = bench::Clock::now();
     roam::Tessellator tess(replica.terrain(), to);
-    tess.update(flightCamera(flight, 0, replica.terrain(), o, width, height));
+    tess.update(flightCamera(flight, 0, replica.terrain(), battle, width, height));
     const double first_frame_ms = bench::msSince(build_start);
+
+    // the renderer, as a rendering bot has it: sync and draw every frame
+    std::unique_ptr<render::GlContext> gl;
+    std::unique_ptr<render::TerrainRenderer> renderer;
+    if (render) {
+        auto context =
+            render::createOffscreenContext(render::OffscreenBackend::kOsmesa, width, height);
+        if (!context) {
+            std::fprintf(stderr, "client_battle_bench: %s\n", context.error().message.c_str());
+            return 2;
+        }
+        gl = std::move(*context);
+        auto made = render::TerrainRenderer::create(*gl);
+        if (!made) {
+            std::fprintf(stderr, "client_battle_bench: %s\n", made.error().message.c_str());
+            return 2;
+        }
+        renderer = std::move(*made);
+    }
+    client::FrameBudgetOptions budget_options;
+    budget_options.target_ms = frame_target_ms;
+    budget_options.max_triangles = max_triangles;
+    client::FrameBudget budget(budget_options);
+    std::vector<double> render_ms;
 
     std::vector<double> single_total, single_apply, single_feed, single_update;
     std::vector<double> burst_total;
@@ -164,8 +221,8 @@ int main(int argc, char** argv) {
     bool hashes_agree = true;
     std::size_t next = 0;
     std::uint64_t seq = 0;
-    for (int f = 1; next < sent.size(); ++f) {
-        const int arriving = f % burst_every == 0 ? burst : 1;
+    for (int f = 1; next < sent.size() || f <= min_frames; ++f) {
+        const int arriving = next >= sent.size() ? 0 : f % burst_every == 0 ? burst : 1;
         const auto t0 = bench::Clock::now();
         for (int k = 0; k < arriving && next < sent.size(); ++k, ++next) {
             auto outcome = replica.applyOp(++seq, sent[next].op, sent[next].world_hash);
@@ -174,15 +231,29 @@ int main(int argc, char** argv) {
         }
         const double apply_ms = bench::msSince(t0);
         const auto t1 = bench::Clock::now();
-        client::feedChanges(
-            client::surfaceChanges(replica.takeDirty(), replica.terrain().spec()), tess);
+        const client::SurfaceChanges changes =
+            client::surfaceChanges(replica.takeDirty(), replica.terrain().spec());
+        if (client::feedChanges(changes, tess) && renderer)
+            renderer->surfaceChanged(changes.cells, changes.all);
         const double feed_ms = bench::msSince(t1);
         const auto t2 = bench::Clock::now();
         const double threshold = tess.threshold();
-        const roam::FrameStats fs =
-            tess.update(flightCamera(flight, f, replica.terrain(), o, width, height));
+        const roam::Camera camera =
+            flightCamera(flight, f, replica.terrain(), battle, width, height);
+        const roam::FrameStats fs = tess.update(camera);
         threshold_moves += tess.threshold() != threshold ? 1 : 0;
         const double update_ms = bench::msSince(t2);
+        double draw_ms = 0.0;
+        if (renderer) {
+            const auto t3 = bench::Clock::now();
+            renderer->sync(tess, replica.terrain());
+            renderer->draw(tess, camera, render::RenderOptions{});
+            gl->present();
+            draw_ms = bench::msSince(t3);
+            render_ms.push_back(draw_ms);
+        }
+        tess.setMaxTriangles(
+            budget.observe(update_ms + feed_ms + apply_ms + draw_ms, fs.triangles));
         const double total = apply_ms + feed_ms + update_ms;
         frame_total.push_back(total);
         triangles.push_back(static_cast<double>(fs.triangles));
@@ -194,7 +265,9 @@ int main(int argc, char** argv) {
         evicted += fs.blocks_evicted;
         if (f % 25 == 0)
             in_use.push_back(static_cast<double>(tess.pinnedBlockCount()));
-        if (arriving == 1) {
+        if (arriving == 0) {
+            // past the battle: frames only
+        } else if (arriving == 1) {
             single_total.push_back(total);
             single_apply.push_back(apply_ms);
             single_feed.push_back(feed_ms);
@@ -203,7 +276,7 @@ int main(int argc, char** argv) {
             burst_total.push_back(total);
         }
     }
-    if (replica.worldHash() != authority.worldHash())
+    if (replica.worldHash() != final_hash)
         hashes_agree = false;
 
     const bench::Summary single = bench::summarize(single_total);
@@ -222,6 +295,13 @@ int main(int argc, char** argv) {
         {"tau_pixels", tau},
         {"max_triangles", max_triangles},
         {"shots", shots},
+        {"join_after", join_after},
+        {"frames", frame_total.size()},
+        {"render", render},
+        {"frame_target_ms", frame_target_ms},
+        {"render_ms", summaryJson(bench::summarize(render_ms))},
+        {"gpu_and_shadow_mib",
+         renderer ? bench::mib(renderer->gpuBytes() + renderer->shadowBytes()) : 0.0},
         {"ops", sent.size()},
         {"hashes_agree", hashes_agree},
         {"first_frame_ms", first_frame_ms},
@@ -257,8 +337,10 @@ int main(int argc, char** argv) {
                       {"no_rebuild", rebuilds == 0},
                       {"tessellator_le_32mb", tess_mib <= 32.0}}}};
     std::printf(
-        "client_battle_bench: %zu ops, %s flight, tau %.2g px, %d x %d\n", sent.size(),
-        flight.c_str(), tau, width, height);
+        "client_battle_bench: %zu ops after %d shots in the snapshot, %zu frames, %s flight, "
+        "tau %.2g px, %d x %d%s\n",
+        sent.size(), join_after, frame_total.size(), flight.c_str(), tau, width, height,
+        render ? ", rendered (OSMesa)" : "");
     std::printf(
         "  crater frame ms: p50 %.2f p99 %.2f max %.2f (apply p50 %.2f, feed p50 %.2f, update "
         "p50 %.2f)\n",
@@ -275,6 +357,11 @@ int main(int argc, char** argv) {
         bench::summarize(error_bound).p50, bench::summarize(error_bound).max, threshold_moves,
         bench::summarize(triangles).p50, bench::summarize(triangles).max, tess_mib, rss_mib,
         first_frame_ms, hashes_agree ? "agree" : "DIFFER");
+    if (renderer)
+        std::printf(
+            "  render (sync + draw) ms: p50 %.1f p99 %.1f; GPU buffers and CPU copies %.1f MiB\n",
+            bench::summarize(render_ms).p50, bench::summarize(render_ms).p99,
+            bench::mib(renderer->gpuBytes() + renderer->shadowBytes()));
     bench::printTessellatorMemory(tess);
     std::printf(
         "  detail blocks: %d cells, pool %d, resident %d, in use p50 %.0f max %.0f; "

@@ -364,7 +364,11 @@ void TerrainRenderer::uploadVertices(
         bytes += run;
         i = last;
     }
-    tb.shadow.swap(scratch_vertices_);
+    // the copy keeps this tile's size: swapping would hand the scratch's capacity (the largest
+    // tile synced so far) to every tile in turn
+    tb.shadow.assign(scratch_vertices_.begin(), scratch_vertices_.end());
+    if (tb.shadow.capacity() > tb.shadow.size() + tb.shadow.size() / 2)
+        tb.shadow.shrink_to_fit();
     tb.vertex_version = tess.tileVertexVersion(tile);
     tb.has_vertices = true;
     stats.vertex_bytes += bytes;
