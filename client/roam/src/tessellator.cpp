@@ -189,6 +189,7 @@ void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
     // a cap that bound before (the threshold is above tau) most likely binds again: go
     // best-first at once rather than refine top-down until the cap stops it
     bool capped = threshold_ > options_.tau_pixels;
+    prefetchBlocks(m, threshold_);
     threshold_ = options_.tau_pixels;
     for (std::int32_t tile = 0; tile < tileCount() && !capped; ++tile) {
         const Diamond root = tileRoot(tile);

@@ -353,6 +353,8 @@ void Tessellator::boundBlocks(std::span<const std::int32_t> blocks, bool collect
                 if (block_chunks_[idx(b)][static_cast<std::size_t>(g)] >= 0)
                     mask |= 1u << g;
             storeGrains(i - first, b, mask, collect);
+            if (prefetch_view_ != nullptr)
+                prefetchGrains(i - first, b);
         }
         first = last;
     }
@@ -472,7 +474,10 @@ Box Tessellator::boxOf(const Diamond& d, const Bounds& bounds) const {
 }
 
 double Tessellator::priority(const ViewMetric& m, const Diamond& d, DiamondId id) const {
-    const Bounds bounds_of = bounds(id);
+    return priority(m, d, bounds(id));
+}
+
+double Tessellator::priority(const ViewMetric& m, const Diamond& d, const Bounds& bounds_of) const {
     const Box b = boxOf(d, bounds_of);
     if (b.lo.x > b.hi.x)
         return 0.0;

@@ -207,6 +207,81 @@ void Tessellator::boundGrains(std::int32_t block, unsigned grain_mask) {
         ++vertex_version_[idx(tile)];
 }
 
+void Tessellator::prefetchBlocks(const ViewMetric& m, double threshold) {
+    // A top-down build at the threshold splits every centre whose priority exceeds it (its
+    // parents' priorities are no lower: bounds and boxes nest), so the cells whose blocks it
+    // will make are known from the records alone; and a grain's deepest diamonds above it split
+    // too, so whether the next grain is needed is known once the grain's bounds are. Forced
+    // splits may need more: the build makes those one at a time, as before.
+    prefetch_.clear();
+    for (std::int32_t tile = 0; tile < tileCount(); ++tile) {
+        const Diamond root = tileRoot(tile);
+        if (priority(m, root, idOf(root.centre)) <= threshold)
+            continue; // nothing in the tile splits
+        const std::int32_t x0 = (tile % spec_.tilesX()) * kTileCells;
+        const std::int32_t y0 = (tile / spec_.tilesX()) * kTileCells;
+        for (std::int32_t cy = y0; cy < y0 + kTileCells; ++cy)
+            for (std::int32_t cx = x0; cx < x0 + kTileCells; ++cx) {
+                const std::int32_t r = blocks_.recordOf(cx, cy);
+                if (r < 0 || blocks_.blockOfRecord(r) >= 0)
+                    continue;
+                const Diamond centre = diamondAt(
+                    {cx * kLatticePerCell + kCentreLocal, cy * kLatticePerCell + kCentreLocal});
+                if (const double p = priority(m, centre, centreBounds(r)); p > threshold)
+                    prefetch_.push_back({p, r});
+            }
+    }
+    const auto room =
+        static_cast<std::size_t>(std::max(0, options_.max_detail_blocks - blocks_.count()));
+    if (prefetch_.size() > room) { // the pool binds: the largest errors first
+        std::nth_element(
+            prefetch_.begin(), prefetch_.begin() + static_cast<std::ptrdiff_t>(room),
+            prefetch_.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+        prefetch_.resize(room);
+    }
+    if (prefetch_.empty())
+        return;
+    defer_bounds_ = true;
+    pass_.clear();
+    for (const auto& [p, r] : prefetch_)
+        pass_.push_back(materialise(r));
+    defer_bounds_ = false;
+    prefetch_view_ = &m;
+    prefetch_threshold_ = threshold;
+    boundBlocks(pass_, false);
+    prefetch_view_ = nullptr;
+}
+
+void Tessellator::prefetchGrains(std::size_t i, std::int32_t block) {
+    const DetailBlocks::CellXY c = blocks_.cellOf(block);
+    const GrainTables& tables = grainTables();
+    for (int g = 1; g < kGrains; ++g) {
+        if (block_chunks_[idx(block)][static_cast<std::size_t>(g)] >= 0)
+            continue;
+        // the build makes grain g when one of grain g - 1's deepest diamonds splits
+        const auto coarser = static_cast<std::size_t>(g - 1);
+        bool needed = false;
+        for (std::int32_t slot = 0; slot < kGrainDiamonds[coarser] && !needed; ++slot) {
+            const std::uint8_t local =
+                tables.diamond_local[coarser][static_cast<std::size_t>(slot)];
+            const LatticePoint p{
+                c.x * kLatticePerCell + local % kLatticePerCell,
+                c.y * kLatticePerCell + local / kLatticePerCell};
+            const Diamond d = diamondAt(p);
+            if (d.level != kGrainDeepestLevel[coarser] || !insideMap(p))
+                continue;
+            needed =
+                priority(*prefetch_view_, d, block_bounds_.bounds(i, local)) > prefetch_threshold_;
+        }
+        if (!needed)
+            return; // nor the finer ones: they hang from this one's splits
+        defer_bounds_ = true;
+        materialiseGrain(block, g);
+        defer_bounds_ = false;
+        storeGrains(i, block, 1u << g, false);
+    }
+}
+
 void Tessellator::materialiseAll() {
     const std::int32_t limit = options_.max_detail_blocks;
     options_.max_detail_blocks = blocks_.recordCapacity() + 1;

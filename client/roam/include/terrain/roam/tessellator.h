@@ -306,6 +306,12 @@ class Tessellator {
     void materialiseGrain(std::int32_t block, int g);
     /// Computes the bounds and heights of the grains of `block` in `grain_mask` (bit g).
     void boundGrains(std::int32_t block, unsigned grain_mask);
+    /// Before a top-down build at `threshold`: makes the blocks and grains it will need, known
+    /// from the records and then from the grains just made, in BlockBounds passes (not one block
+    /// at a time as the build meets them), while the pool has room.
+    void prefetchBlocks(const ViewMetric& m, double threshold);
+    /// During a prefetch pass: the finer grains of the pass's i-th block that the build will need.
+    void prefetchGrains(std::size_t i, std::int32_t block);
     bool pinned(std::int32_t block) const;
     /// Some diamond of the chunk is split or a candidate.
     bool grainPinned(int g, std::int32_t chunk) const;
@@ -353,6 +359,7 @@ class Tessellator {
     void recomputeBounds(CellRect cells, bool all, bool collect);
     Box boxOf(const Diamond& d, const Bounds& b) const;
     double priority(const ViewMetric& m, const Diamond& d, DiamondId id) const;
+    double priority(const ViewMetric& m, const Diamond& d, const Bounds& b) const;
     /// An upper bound on priority() for a diamond whose block is not resident, from its cells'
     /// records (no heights needed).
     double recordPriority(const ViewMetric& m, const Diamond& d) const;
@@ -430,7 +437,10 @@ class Tessellator {
     std::vector<DetailBlocks::CellXY> pass_cells_;
     std::vector<std::int32_t> pass_blocks_;
     std::array<std::int64_t, kBlockVertices> heights_scratch_{};
-    bool defer_bounds_ = false; ///< materialiseAll: bounds in one pass at the end
+    bool defer_bounds_ = false; ///< materialiseAll, prefetch: bounds in passes at the end
+    const ViewMetric* prefetch_view_ = nullptr; ///< during prefetchBlocks' pass
+    double prefetch_threshold_ = 0.0;
+    std::vector<std::pair<double, std::int32_t>> prefetch_; ///< priority, record
     /// The cell block_bounds_ last computed alone, and the terrain generation it saw.
     DetailBlocks::CellXY bounded_cell_{};
     std::uint64_t bounded_generation_ = 0;
