@@ -252,36 +252,38 @@ void TerrainRenderer::uploadVertices(
     const bool full = !tb.has_vertices || all_changed_;
     const auto old_count = full ? 0u : static_cast<std::uint32_t>(tb.shadow.size());
 
-    // Positions first (cheap). Where one moved, the surface changed, and so may every normal
-    // within one cell of it (the surface changes only where some vertex did: every patch cell
-    // has a detail block), as may the normals in surfaceChanged()'s regions.
+    // Positions first (cheap). A vertex new to its slot (a grain came, or took a hole) needs
+    // its own normal. Where one rose or fell in place, the surface changed, and so may every
+    // normal within one cell of it (the surface changes only where some vertex did: every patch
+    // cell has a detail block), as may the normals in surfaceChanged()'s regions.
     scratch_keys_.resize(count);
     scratch_vertices_.resize(count);
+    tess.tileVertices(tile, scratch_keys_);
     roam::LatticePoint lo{
         std::numeric_limits<std::int32_t>::max(), std::numeric_limits<std::int32_t>::max()};
     roam::LatticePoint hi{
         std::numeric_limits<std::int32_t>::min(), std::numeric_limits<std::int32_t>::min()};
     for (std::uint32_t i = 0; i < count; ++i) {
-        const roam::TileVertex v = tess.tileVertex(tile, i);
-        scratch_keys_[i] = v;
+        const roam::TileVertex& v = scratch_keys_[i];
         GpuVertex& out = scratch_vertices_[i];
         out.x = static_cast<float>(v.position.x * per_lattice - corner_x);
         out.y = static_cast<float>(v.position.y * per_lattice - corner_y);
         out.z = static_cast<float>(static_cast<double>(v.height) * per_fine);
-        const bool moved = i >= old_count || out.x != tb.shadow[i].x || out.y != tb.shadow[i].y ||
-                           out.z != tb.shadow[i].z;
+        const bool fresh = i >= old_count || out.x != tb.shadow[i].x || out.y != tb.shadow[i].y;
+        const bool moved = !fresh && out.z != tb.shadow[i].z;
         if (moved) {
             lo = {std::min(lo.x, v.position.x), std::min(lo.y, v.position.y)};
             hi = {std::max(hi.x, v.position.x), std::max(hi.y, v.position.y)};
         }
-        out.normal = moved ? 0u : tb.shadow[i].normal;
+        out.normal = fresh || moved ? 0u : tb.shadow[i].normal;
     }
     constexpr std::int32_t kStencil = roam::kLatticePerCell;
     lo = {lo.x - kStencil, lo.y - kStencil};
     hi = {hi.x + kStencil, hi.y + kStencil};
     const auto needsNormal = [&](std::uint32_t i) {
         const roam::LatticePoint p = scratch_keys_[i].position;
-        if (full || i >= old_count || (p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y))
+        if (full || i >= old_count || scratch_vertices_[i].normal == 0u ||
+            (p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y))
             return true;
         for (const Region& r : changed_)
             if (p.x >= r.lo.x && p.x <= r.hi.x && p.y >= r.lo.y && p.y <= r.hi.y)

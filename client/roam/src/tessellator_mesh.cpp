@@ -361,6 +361,33 @@ TileVertex Tessellator::tileVertex(std::int32_t tile, std::uint32_t index) const
         origin};
 }
 
+void Tessellator::tileVertices(std::int32_t tile, std::span<TileVertex> out) const {
+    TERRAIN_ASSERT(out.size() == static_cast<std::size_t>(tileVertexCount(tile)));
+    for (std::uint32_t i = 0; i < static_cast<std::uint32_t>(kBaseVertices); ++i)
+        out[i] = tileVertex(tile, i);
+    const GrainTables& tables = grainTables();
+    for (const VertexSegment& seg : tile_segments_[idx(tile)]) {
+        const auto g = static_cast<std::size_t>(seg.grain);
+        const auto first = static_cast<std::size_t>(kBaseVertices + seg.offset);
+        const auto n = static_cast<std::size_t>(kGrainVertices[g]);
+        if (seg.chunk < 0) { // a hole: the tile's first vertex stands in
+            std::fill_n(out.begin() + static_cast<std::ptrdiff_t>(first), n, out[0]);
+            continue;
+        }
+        const DetailBlocks::CellXY c = blocks_.cellOf(grains_[g].block[idx(seg.chunk)]);
+        const LatticePoint origin{c.x * kLatticePerCell, c.y * kLatticePerCell};
+        const std::int64_t base = grains_[g].base[idx(seg.chunk)];
+        const std::uint32_t* heights = grains_[g].heights.data() + idx(seg.chunk) * n;
+        for (std::size_t v = 0; v < n; ++v) {
+            const std::uint16_t local = tables.vertex_local[g][v];
+            out[first + v] = {
+                {origin.x + local % kBlockSide, origin.y + local / kBlockSide},
+                base + heights[v],
+                origin};
+        }
+    }
+}
+
 // ---- terrain changes ----------------------------------------------------------------------
 
 void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {

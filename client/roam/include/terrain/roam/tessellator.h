@@ -166,6 +166,9 @@ class Tessellator {
     std::uint32_t tileVertexVersion(std::int32_t tile) const { return vertex_version_[idx(tile)]; }
     std::int32_t tileVertexCount(std::int32_t tile) const;
     TileVertex tileVertex(std::int32_t tile, std::uint32_t index) const;
+    /// Every vertex of the tile's array at once (out.size() == tileVertexCount(tile)): what the
+    /// renderer reads when a tile's vertex version moves.
+    void tileVertices(std::int32_t tile, std::span<TileVertex> out) const;
 
     /// Every leaf triangle of the current mesh, emitted or not (tests: conformity).
     template <class Visit> void forEachLeaf(Visit&& visit) const;
