@@ -34,6 +34,7 @@ void Tessellator::adoptSpec() {
     tiles_.clear();
     tiles_.resize(tiles);
     tile_visible_.assign(tiles, 0);
+    tile_seen_.assign(tiles, 0);
     vertex_version_.assign(tiles, 0);
     tile_segments_.clear();
     tile_segments_.resize(tiles);
@@ -357,6 +358,14 @@ void Tessellator::finishFrame(const ViewMetric& m, FrameStats& stats) {
             std::min((ty + 1) * kLatticePerTile, real_y_) * metres_per_lattice_, bounds(id).zhi};
         const bool visible = m.intersectsFrustum(box);
         tile_visible_[idx(tile)] = visible ? 1 : 0;
+        // memory follows the view: a tile out of it as long as an idle block gives back the
+        // capacity of its peak list (a few tiles a frame)
+        if (visible)
+            tile_seen_[idx(tile)] = frame_;
+        else if (
+            frame_ > tile_seen_[idx(tile)] + kTileIdleFrames &&
+            (frame_ + static_cast<std::uint64_t>(tile)) % kTileShrinkEvery == 0)
+            mesh.shrink();
         stats.triangles += mesh.triangleCount();
         if (visible)
             stats.visible_triangles += mesh.triangleCount();

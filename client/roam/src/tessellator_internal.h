@@ -32,6 +32,10 @@ inline constexpr double kCapStepMax = 2.0;
 inline constexpr double kCapStepDown = 1.05;
 /// Block slots the idle sweep looks at per frame (Tessellator::sweepIdleBlocks).
 inline constexpr std::size_t kIdleSweep = 512;
+/// A tile out of view this many frames shrinks its index list's capacity, each tile checked
+/// every kTileShrinkEvery frames.
+inline constexpr std::uint64_t kTileIdleFrames = 600;
+inline constexpr std::uint64_t kTileShrinkEvery = 64;
 /// The threshold falls only this many frames after the block pool last refused a split.
 inline constexpr std::uint64_t kPoolQuietFrames = 30;
 /// A threshold move re-examines the candidates keyed against the old one over this many frames.

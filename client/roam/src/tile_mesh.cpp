@@ -41,7 +41,10 @@ std::uint32_t TileMesh::find(std::uint32_t key) const {
 }
 
 void TileMesh::growTable() {
-    const std::size_t size = std::max<std::size_t>(64, table_keys_.size() * 2);
+    resizeTable(std::max<std::size_t>(64, table_keys_.size() * 2));
+}
+
+void TileMesh::resizeTable(std::size_t size) {
     std::vector<std::uint32_t> keys(size, kNoKey);
     std::vector<std::uint32_t> slots(size, 0);
     const std::size_t mask = size - 1;
@@ -157,6 +160,23 @@ void TileMesh::fillHoles() {
         table_slots_[i] = hole;
         keys_of_slots_.pop_back();
         indices_.resize(indices_.size() - 3);
+    }
+}
+
+void TileMesh::shrink() {
+    // what the peak list held, where a quarter of it is in use at most (a list that merely
+    // breathes is not shrunk and regrown)
+    constexpr std::size_t kKeep = 1024; // slots
+    if (keys_of_slots_.capacity() > 4 * keys_of_slots_.size() + kKeep) {
+        keys_of_slots_.shrink_to_fit();
+        indices_.shrink_to_fit();
+        std::vector<std::uint32_t>(free_slots_).swap(free_slots_);
+    }
+    if (table_keys_.size() > 4 * kKeep && std::size_t{table_used_} * 8 < table_keys_.size()) {
+        std::size_t size = 64;
+        while (std::size_t{table_used_} * 10 > size * 3) // about 30 % full after
+            size *= 2;
+        resizeTable(size);
     }
 }
 

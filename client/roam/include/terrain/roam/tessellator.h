@@ -463,6 +463,7 @@ class Tessellator {
     // per tile
     std::vector<TileMesh> tiles_;
     std::vector<std::uint8_t> tile_visible_;
+    std::vector<std::uint64_t> tile_seen_; ///< per tile: the frame it was last in view
     std::vector<std::uint32_t> vertex_version_;
     /// Segments of each tile's vertex array past the base grid, by offset; a segment keeps its
     /// place while its grain lives, so index lists never move.

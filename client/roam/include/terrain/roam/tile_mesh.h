@@ -43,6 +43,9 @@ class TileMesh {
     bool contains(std::uint32_t key) const { return find(key) != kEmpty; }
     /// Moves the last triangles into the free slots and shortens the list (end of a frame).
     void fillHoles();
+    /// Gives back the memory of a list that has shrunk to a quarter of its peak (or less): for
+    /// tiles the view has left, as it allocates.
+    void shrink();
 
     /// Three indices per slot; a free slot (only between fillHoles() calls) is (0, 0, 0).
     std::span<const std::uint32_t> indices() const { return indices_; }
@@ -81,6 +84,7 @@ class TileMesh {
     void insertKey(std::uint32_t key, std::uint32_t slot);
     void eraseKey(std::uint32_t key);
     void growTable();
+    void resizeTable(std::size_t size);
     void write(std::uint32_t slot, const Indices& indices);
     static std::size_t hashKey(std::uint32_t key);
 
