@@ -166,7 +166,7 @@ bool Tessellator::storeBounds(DiamondId id, float delta, float zlo, float zhi) {
     return changed;
 }
 
-double Tessellator::childBounds(LatticePoint c, double& zlo, double& zhi, float& cap) const {
+double Tessellator::childBounds(LatticePoint c, double& zlo, double& zhi) const {
     const DiamondId id = idOf(c);
     if (id != kNoDiamond) {
         const Bounds b = bounds(id);
@@ -175,8 +175,7 @@ double Tessellator::childBounds(LatticePoint c, double& zlo, double& zhi, float&
         TERRAIN_ASSERT(id < kPooled); // the grid's children are grid vertices and centres
         return b.delta;
     }
-    cap = std::max(cap, cellCap(c.x / kLatticePerCell, c.y / kLatticePerCell));
-    // a cell without a block is drawn with its base triangles, which are the true surface
+    // a cell without a record is drawn with its base triangles, which are the true surface
     const Diamond d = diamondAt(c);
     for (const LatticePoint corner : hypotenuseEnds(d)) {
         const double z = static_cast<double>(heightAt(corner)) * metres_per_fine_;
@@ -221,26 +220,6 @@ OwnSpan ownSpan(const Diamond& d, const Height& height, const Inside& inside, do
 }
 
 } // namespace
-
-bool Tessellator::finishBounds(
-    DiamondId id,
-    std::int64_t own_lo,
-    std::int64_t own_hi,
-    double delta,
-    double lo,
-    double hi,
-    float cap) {
-    // the nested bound and the cap are both true bounds: the smaller one is kept, and the box
-    // widened by it still holds the surface over the diamond and every descendant's box. The cap
-    // is nested too (the largest cellError of the diamond's cells and its children's caps), so a
-    // parent's kept bound is never below a child's, even across cells.
-    TERRAIN_ASSERT(id < kPooled); // pooled diamonds are BlockBounds'
-    const float kept = std::min(roundUp(delta), cap);
-    const double widen = kept;
-    return storeBounds(
-        id, kept, roundDown(std::min(static_cast<double>(own_lo) * metres_per_fine_ - widen, lo)),
-        roundUp(std::max(static_cast<double>(own_hi) * metres_per_fine_ + widen, hi)));
-}
 
 namespace {
 
@@ -295,33 +274,28 @@ Tessellator::WindowBound Tessellator::windowBound(std::int32_t cx, std::int32_t 
     return w;
 }
 
-bool Tessellator::computeBounds(const Diamond& d, DiamondId id, float cap) {
+bool Tessellator::computeBounds(const Diamond& d, DiamondId id) {
+    // a diamond of the grid (levels 0-11): its vertices are grid vertices, its children grid
+    // vertices or, at level 11, the centres of the cells around it
+    TERRAIN_ASSERT(d.level < kCellTriangleLevel && id < grid_count_);
     const OwnSpan own = ownSpan(
         d, [&](LatticePoint p) { return heightAt(p); },
         [&](LatticePoint p) { return insideMap(p); }, metres_per_fine_);
     double child = 0.0;
     double lo = kInfinity;
     double hi = -kInfinity;
-    float nested_cap = cap;
-    if (d.level == kMaxDiamondLevel) {
-        for (const LatticePoint a : apexes(d)) {
-            if (!insideMap(a))
-                continue;
-            const LatticePoint c3 = centroidTimes3(triangleOf(d, a));
-            const std::int32_t record =
-                blocks_.recordOf(c3.x / (3 * kLatticePerCell), c3.y / (3 * kLatticePerCell));
-            if (record >= 0)
-                child = std::max(
-                    child, static_cast<double>(blocks_.finestError(record)) * metres_per_fine_);
-        }
-    } else {
-        std::array<LatticePoint, 4> kids{};
-        const int n = children(d, kids);
-        for (int i = 0; i < n; ++i)
-            if (insideMap(kids[idx(i)]))
-                child = std::max(child, childBounds(kids[idx(i)], lo, hi, nested_cap));
-    }
-    return finishBounds(id, own.lo, own.hi, own.local + child, lo, hi, nested_cap);
+    std::array<LatticePoint, 4> kids{};
+    const int n = children(d, kids);
+    for (int i = 0; i < n; ++i)
+        if (insideMap(kids[idx(i)]))
+            child = std::max(child, childBounds(kids[idx(i)], lo, hi));
+    // the box widened by the bound still holds the surface over the diamond and every
+    // descendant's box
+    const float kept = roundUp(own.local + child);
+    const double widen = kept;
+    return storeBounds(
+        id, kept, roundDown(std::min(static_cast<double>(own.lo) * metres_per_fine_ - widen, lo)),
+        roundUp(std::max(static_cast<double>(own.hi) * metres_per_fine_ + widen, hi)));
 }
 
 void Tessellator::boundBlocks(std::span<const std::int32_t> blocks, bool collect) {
@@ -451,7 +425,7 @@ void Tessellator::recomputeBounds(CellRect cells, bool all, bool collect) {
                 if (d.level != level)
                     continue;
                 const DiamondId id = idOf(d.centre);
-                if (computeBounds(d, id, kNoCap) && collect)
+                if (computeBounds(d, id) && collect)
                     recomputed_.push_back(id);
             }
     }

@@ -17,7 +17,6 @@ inline constexpr std::int32_t kBaseVertices = kTileVertices * kTileVertices;
 /// Diamond ids per block: the cell's 16 x 16 half-open lattice (position 0 is a grid vertex).
 inline constexpr std::uint32_t kDiamondsPerBlock = kLatticePerCell * kLatticePerCell;
 inline constexpr double kInfinity = std::numeric_limits<double>::infinity();
-inline constexpr float kNoCap = std::numeric_limits<float>::infinity();
 /// Local position (x and y) of a cell's centre diamond, whose triangles are its base triangles.
 inline constexpr std::int32_t kCentreLocal = kLatticePerCell / 2;
 

@@ -328,18 +328,10 @@ class Tessellator {
     void refuse(bool pool);
 
     // bounds
-    /// Both return whether the diamond's bounds changed; `cap` (metres) clamps the delta.
-    bool computeBounds(const Diamond& d, DiamondId id, float cap);
+    /// A grid diamond's bounds from its vertices and children; whether they changed.
+    bool computeBounds(const Diamond& d, DiamondId id);
     /// Stores a grid diamond's bounds; whether they changed.
     bool storeBounds(DiamondId id, float delta, float zlo, float zhi);
-    bool finishBounds(
-        DiamondId id,
-        std::int64_t own_lo,
-        std::int64_t own_hi,
-        double delta,
-        double lo,
-        double hi,
-        float cap);
     /// Conservative bound (metres) of a detail cell (0 for a cell without a record).
     float cellCap(std::int32_t cx, std::int32_t cy) const;
     /// The largest cellCap and the vertex range (fine units) of the 3 x 3 cells around a cell,
@@ -367,7 +359,7 @@ class Tessellator {
     /// records (no heights needed).
     double recordPriority(const ViewMetric& m, const Diamond& d) const;
     double priorityAnyDirection(const ViewMetric& m, const Diamond& d, DiamondId id) const;
-    double childBounds(LatticePoint c, double& zlo, double& zhi, float& cap) const;
+    double childBounds(LatticePoint c, double& zlo, double& zhi) const;
 
     // mesh
     bool canActivate(const Diamond& d, DiamondId id) const;
