@@ -312,6 +312,32 @@ TEST(RoamMesh, ACellsErrorBoundsEveryTriangleOnItsBlock) {
     EXPECT_GE(tightest, 0.0);
 }
 
+TEST(RoamMesh, StridedCellHeightsAreTheFullGridsOwn) {
+    // after an op, a block's heights are refilled at its grains' vertices only (every 4th or
+    // 2nd point for coarse and medium blocks): they must be the full grid's values there
+    const Terrain t = cratered(7, 40);
+    std::int64_t compared = 0;
+    for (std::int32_t cy = 0; cy < t.spec().cellsY(); cy += 3)
+        for (std::int32_t cx = 0; cx < t.spec().cellsX(); cx += 3) {
+            if (t.findPatch(cx, cy) == nullptr && (cx + cy) % 31 != 0)
+                continue; // every patch cell of the sample, and some without
+            std::array<std::int64_t, roam::kBlockVertices> full{};
+            roam::fillCellHeights(t, cx, cy, full);
+            for (const std::int32_t stride : {2, 4}) {
+                std::array<std::int64_t, roam::kBlockVertices> part{};
+                roam::fillCellHeights(t, cx, cy, part, stride);
+                for (std::int32_t l = 0; l < roam::kBlockSide; l += stride)
+                    for (std::int32_t k = 0; k < roam::kBlockSide; k += stride) {
+                        const auto i = static_cast<std::size_t>(l * roam::kBlockSide + k);
+                        ASSERT_EQ(part[i], full[i])
+                            << "cell " << cx << "," << cy << " (" << k << "," << l << ")";
+                        ++compared;
+                    }
+            }
+        }
+    EXPECT_GT(compared, 10000);
+}
+
 /// Every diamond of every detail cell of `t` (their centres included), in cell order.
 template <class Visit> void forEachDetailDiamond(const Terrain& t, Visit&& visit) {
     for (std::int32_t cy = 0; cy < t.spec().paddedHeight(); ++cy)
@@ -747,6 +773,10 @@ bool verticesMatchAFreshBuild(const Tessellator& tess, const Terrain& t) {
 // the ops) must hold what a fresh build with every block gives.
 void expectSameAsFreshBuild(
     Tessellator& tess, const Terrain& t, const Camera& c, std::int64_t min_diamonds) {
+    // bounds that ops made stale are redone within a per-frame budget: the frames first
+    for (int f = 0; f < 1000 && tess.staleBlockCount() > 0; ++f)
+        tess.update(c);
+    ASSERT_EQ(tess.staleBlockCount(), 0);
     Tessellator fresh(t, {});
     fresh.update(c);
     Tessellator all(t, {});
@@ -841,6 +871,46 @@ TEST(RoamMesh, ABattleFedOpByOpEqualsAFreshBuild) {
     }
     ASSERT_GT(craters, 80);
     expectSameAsFreshBuild(tess, t, c, 100000);
+}
+
+TEST(RoamMesh, ABurstOfCratersIsSpreadOverFramesAndConverges) {
+    // many ops in one frame: their vertex heights follow at once (the mesh drawn is the new
+    // surface, crack-free), their blocks' bounds within the per-frame budget, reported as not
+    // exact until done; then the tessellator is what a fresh build makes
+    Terrain t = cratered(6, 40); // patches, so blocks, before the burst
+    TessellatorOptions o;
+    o.stale_block_budget = 64;
+    Tessellator tess(t, o);
+    const Camera c = overview(t, 60.0);
+    tess.update(c);
+    tess.materialiseAll(); // every block follows the ops: plenty of stale bounds
+    CraterSeries s;
+    s.seed = 60;
+    s.count = 12;
+    std::vector<CellRect> changed;
+    for (const OpRequest& r : randomCraters(t.spec(), s)) {
+        auto op = quantizeOp(r, t.spec());
+        ASSERT_TRUE(op.ok());
+        auto effect = t.apply(*op);
+        ASSERT_TRUE(effect.ok());
+        changed.push_back(effect->cells);
+    }
+    tess.terrainChanged(changed, false);
+    const auto first = tess.update(c);
+    EXPECT_LE(first.stale_blocks_bounded, o.stale_block_budget);
+    EXPECT_GT(first.stale_blocks, 0) << "the burst fitted in one frame's budget";
+    EXPECT_TRUE(first.budget_exhausted);
+    EXPECT_TRUE(verticesMatchAFreshBuild(tess, t)) << "a vertex height lagged the ops";
+    expectConforming(tess, t.spec());
+    expectIndexListsMatchMesh(tess);
+    int frames = 1;
+    while (tess.staleBlockCount() > 0 && frames < 1000) {
+        EXPECT_LE(tess.update(c).stale_blocks_bounded, o.stale_block_budget);
+        ++frames;
+    }
+    EXPECT_GT(frames, 2);
+    EXPECT_FALSE(tess.update(c).budget_exhausted);
+    expectSameAsFreshBuild(tess, t, c, 10000);
 }
 
 TEST(RoamMesh, FollowsAReplicaThroughOpsAndASnapshot) {

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace terrain::roam {
 
@@ -391,8 +392,14 @@ FrameStats Tessellator::update(const Camera& camera) {
     const bool jumped = glm::length(camera.eye - last_eye_) > teleport;
     const bool lens_changed =
         m.errorScale() != last_error_scale_ || camera.near_plane != last_near_;
-    if (options_.mode == TessellationMode::kSplitOnly || needs_rebuild_ || !initialized_ ||
-        jumped || lens_changed) {
+    const bool rebuilding = options_.mode == TessellationMode::kSplitOnly || needs_rebuild_ ||
+                            !initialized_ || jumped || lens_changed;
+    // bounds that ops made stale: within the budget, or all before a rebuild
+    const std::int64_t budget = rebuilding || options_.stale_block_budget <= 0
+                                    ? std::numeric_limits<std::int64_t>::max()
+                                    : options_.stale_block_budget;
+    stats.stale_blocks_bounded = drainStale(budget);
+    if (rebuilding) {
         rebuildTopDown(m, stats);
         needs_rebuild_ = false;
         initialized_ = true;
@@ -419,6 +426,10 @@ FrameStats Tessellator::update(const Camera& camera) {
     finishFrame(m, stats);
     sweepIdleBlocks();
     stats.refused_by_pool = pool_refusals_ - pool_refusals;
+    freshenHeights();
+    stats.stale_blocks = staleBlockCount();
+    if (stats.stale_blocks > 0)
+        stats.budget_exhausted = true; // their bounds are the old surface's
     stats.blocks_materialised = materialised_ - materialised;
     stats.blocks_evicted = evicted_ - evicted;
     return stats;

@@ -338,6 +338,7 @@ void Tessellator::storeGrains(
     std::size_t i, std::int32_t block, unsigned grain_mask, bool collect) {
     const GrainTables& tables = grainTables();
     block_bounds_.heights(i, heights_scratch_);
+    storeHeights(block, grain_mask);
     for (int g = 0; g < kGrains; ++g) {
         if ((grain_mask & (1u << g)) == 0)
             continue;
@@ -357,6 +358,16 @@ void Tessellator::storeGrains(
             if (changed && collect)
                 recomputed_.push_back(grainId(g, chunk, static_cast<std::uint32_t>(slot)));
         }
+    }
+}
+
+void Tessellator::storeHeights(std::int32_t block, unsigned grain_mask) {
+    const GrainTables& tables = grainTables();
+    for (int g = 0; g < kGrains; ++g) {
+        const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
+        if ((grain_mask & (1u << g)) == 0 || chunk < 0)
+            continue;
+        Grain& grain = grains_[static_cast<std::size_t>(g)];
         const auto vertices = static_cast<std::size_t>(kGrainVertices[static_cast<std::size_t>(g)]);
         const auto& local = tables.vertex_local[static_cast<std::size_t>(g)];
         std::int64_t lowest = heights_scratch_[local[0]];
@@ -369,6 +380,69 @@ void Tessellator::storeGrains(
     }
 }
 
+void Tessellator::markStale(CellRect cells) {
+    // the bounds of the blocks whose 3 x 3 window meets the change wait for the frames' budget
+    // (drainStale); the heights of those whose surface changed must be new by the end of the
+    // next update(), before anything draws them (freshenHeights), or the mesh would crack
+    const CellRect around{
+        std::max(0, cells.x0 - 1), std::max(0, cells.y0 - 1),
+        std::min(blocks_.cellsX() - 1, cells.x1 + 1), std::min(blocks_.cellsY() - 1, cells.y1 + 1)};
+    block_stale_.resize(idx(blocks_.capacity()), 0);
+    for (std::int32_t cy = around.y0; cy <= around.y1; ++cy)
+        for (std::int32_t cx = around.x0; cx <= around.x1; ++cx) {
+            const std::int32_t b = blocks_.blockOf(cx, cy);
+            if (b < 0)
+                continue;
+            if (block_stale_[idx(b)] == 0)
+                stale_.push_back(b);
+            block_stale_[idx(b)] |= kStaleBounds;
+            // the cells whose surface changed; and a padding cell beside the real map's last
+            // line, whose corners there are real samples an op may move (it is never drawn, but
+            // its block holds them)
+            const bool changed =
+                cx >= cells.x0 && cx <= cells.x1 && cy >= cells.y0 && cy <= cells.y1;
+            if (changed || cx >= spec_.cellsX() || cy >= spec_.cellsY())
+                block_stale_[idx(b)] |= kStaleHeights;
+        }
+}
+
+void Tessellator::freshenHeights() {
+    // the blocks the budget left stale: their heights now, at their grains' vertices only
+    for (const std::int32_t b : stale_) {
+        if ((block_stale_[idx(b)] & kStaleHeights) == 0)
+            continue;
+        block_stale_[idx(b)] = static_cast<std::uint8_t>(block_stale_[idx(b)] & ~kStaleHeights);
+        const auto& chunks = block_chunks_[idx(b)];
+        const std::int32_t stride = chunks[2] >= 0 ? 1 : chunks[1] >= 0 ? 2 : 4;
+        const DetailBlocks::CellXY c = blocks_.cellOf(b);
+        fillCellHeights(*terrain_, c.x, c.y, heights_scratch_, stride);
+        storeHeights(b, 7u);
+    }
+}
+
+std::int64_t Tessellator::drainStale(std::int64_t budget) {
+    // oldest first; a block evicted since (its flag cleared) is skipped, and one made since
+    // has its bounds from the terrain as it is
+    pass_.clear();
+    std::size_t taken = 0;
+    while (taken < stale_.size() && static_cast<std::int64_t>(pass_.size()) < budget) {
+        const std::int32_t b = stale_[taken++];
+        if (idx(b) < block_stale_.size() && block_stale_[idx(b)] != 0) {
+            block_stale_[idx(b)] = 0; // the pass stores its heights too
+            pass_.push_back(b);
+        }
+    }
+    stale_.erase(stale_.begin(), stale_.begin() + static_cast<std::ptrdiff_t>(taken));
+    if (pass_.empty())
+        return 0;
+    recomputed_.clear();
+    boundBlocks(pass_, true);
+    if (initialized_ && !needs_rebuild_)
+        for (const DiamondId id : recomputed_)
+            refreshCandidate(id);
+    return static_cast<std::int64_t>(pass_.size());
+}
+
 void Tessellator::recomputeBounds(CellRect cells, bool all, bool collect) {
     // resident blocks whose 3 x 3 window meets the change, then the centres (their four edge
     // neighbours), then the grid
@@ -377,19 +451,15 @@ void Tessellator::recomputeBounds(CellRect cells, bool all, bool collect) {
                                       std::max(0, cells.x0 - 1), std::max(0, cells.y0 - 1),
                                       std::min(blocks_.cellsX() - 1, cells.x1 + 1),
                                       std::min(blocks_.cellsY() - 1, cells.y1 + 1)};
-    pass_.clear();
+    // (after an op the resident blocks' bounds wait in stale_, within the frames' budget)
     if (all) {
+        pass_.clear();
         for (std::int32_t b = 0; b < blocks_.capacity(); ++b)
             if (blocks_.inUse(b))
                 pass_.push_back(b);
-    } else {
-        for (std::int32_t cy = around.y0; cy <= around.y1; ++cy)
-            for (std::int32_t cx = around.x0; cx <= around.x1; ++cx)
-                if (const std::int32_t b = blocks_.blockOf(cx, cy); b >= 0)
-                    pass_.push_back(b);
+        if (!pass_.empty())
+            boundBlocks(pass_, collect);
     }
-    if (!pass_.empty())
-        boundBlocks(pass_, collect);
     // the centres' bounds follow from the records; their candidates are re-examined
     if (all) {
         // the grid pass reads every centre about four times: each is computed once for it

@@ -397,6 +397,8 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
         if (tiles_.empty() || !(terrain_->spec() == spec_))
             adoptSpec();
         blocks_.reset(*terrain_); // records only: no block resident
+        stale_.clear();
+        block_stale_.clear();
         for (Grain& g : grains_)
             g = Grain{};
         block_chunks_.clear();
@@ -473,6 +475,7 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
             for (std::int32_t tx = std::max(0, r.x0) / kTileCells;
                  tx <= std::min(r.x1 / kTileCells, spec_.tilesX() - 1); ++tx)
                 ++vertex_version_[idx(ty * spec_.tilesX() + tx)];
+        markStale(r);
         recomputed_.clear();
         recomputeBounds(r, false, true);
         if (initialized_ && !needs_rebuild_) {

@@ -87,6 +87,8 @@ void Tessellator::evict(std::int32_t block) {
         if (block_chunks_[idx(block)][static_cast<std::size_t>(g)] >= 0)
             releaseGrain(block, g);
     block_chunks_[idx(block)] = {-1, -1, -1};
+    if (idx(block) < block_stale_.size())
+        block_stale_[idx(block)] = 0; // its place in stale_ is skipped
     if (const std::int32_t tile = tileOfCell(blocks_.cellOf(block)); tile >= 0)
         ++vertex_version_[idx(tile)];
     blocks_.release(block);

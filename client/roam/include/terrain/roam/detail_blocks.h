@@ -163,11 +163,14 @@ class DetailBlocks {
 
 /// The heights (fine units) of cell (cx, cy)'s 17 x 17 vertices, (k, l) at l * 17 + k: its
 /// patch's grid (spline numerators rounded to 1/16 quantum) if it is a real cell with a patch,
-/// else its base triangles, exact; zeros for a virtual cell past the padded grid.
+/// else its base triangles, exact; zeros for a virtual cell past the padded grid. With a
+/// `stride` of 2 or 4, only the vertices whose k and l are multiples of it (a block's coarser
+/// grains; the others are left as they were), the same values at a fraction of the work.
 void fillCellHeights(
     const Terrain& t,
     std::int32_t cx,
     std::int32_t cy,
-    std::span<std::int64_t, kBlockVertices> out);
+    std::span<std::int64_t, kBlockVertices> out,
+    std::int32_t stride = 1);
 
 } // namespace terrain::roam

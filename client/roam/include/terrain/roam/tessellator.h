@@ -77,6 +77,11 @@ struct TessellatorOptions {
     std::int32_t detail_block_idle_frames = 600;
     /// Splits + merges per frame in kSplitMerge; the rest waits for the next frame.
     std::int64_t work_budget = 1'000'000;
+    /// Detail blocks whose bounds an op made stale, recomputed per frame (their heights follow
+    /// the op at once, so the mesh drawn is the new surface); the rest wait for the next frames,
+    /// and meanwhile the error bound is not exact there (FrameStats::stale_blocks). A crater in
+    /// a battle makes about 300 stale; 0: no limit.
+    std::int64_t stale_block_budget = 512;
     /// An eye jump longer than this rebuilds top-down; 0 means 8 tiles.
     double teleport_metres = 0.0;
     /// Merge candidates' culling is re-checked as the view turns, about all of them per this
@@ -107,8 +112,10 @@ struct FrameStats {
     std::int64_t refused_by_pool = 0; ///< of which for want of a detail block
     std::int64_t blocks_materialised = 0;
     std::int64_t blocks_evicted = 0;
-    std::int64_t triangles = 0;         ///< emitted, all tiles
-    std::int64_t visible_triangles = 0; ///< in tiles that intersect the frustum
+    std::int64_t stale_blocks_bounded = 0; ///< blocks whose stale bounds this frame redid
+    std::int64_t stale_blocks = 0;         ///< still waiting (their error bound is the old one)
+    std::int64_t triangles = 0;            ///< emitted, all tiles
+    std::int64_t visible_triangles = 0;    ///< in tiles that intersect the frustum
     std::int64_t index_bytes_written = 0;
     std::int64_t index_bytes_total = 0; ///< size of every tile's index list
     /// The screen error (pixels) every triangle of the mesh is within: tau, or the higher
@@ -176,6 +183,9 @@ class Tessellator {
     std::int64_t triangleCount() const { return triangles_; }
     /// Detail blocks resident now.
     std::int32_t blockCount() const { return blocks_.count(); }
+    /// Resident blocks whose bounds wait for a frame's budget since an op (may count a few
+    /// evicted since).
+    std::int64_t staleBlockCount() const { return static_cast<std::int64_t>(stale_.size()); }
     /// Resident chunks of each grain (grain 0: one per block).
     std::array<std::int32_t, kGrains> grainCounts() const;
     /// Resident blocks that cannot be evicted now (some diamond refers to them); O(pool).
@@ -348,6 +358,18 @@ class Tessellator {
     /// Stores what the last BlockBounds pass computed for its i-th cell into `block`'s grains in
     /// `grain_mask`; returns whether any stored bound changed (ids to recomputed_ if `collect`).
     void storeGrains(std::size_t i, std::int32_t block, unsigned grain_mask, bool collect);
+    /// Stores heights_scratch_ (a cell's 17 x 17) into `block`'s resident grains in the mask.
+    void storeHeights(std::int32_t block, unsigned grain_mask);
+    /// After an op changed `cells`: the blocks whose bounds depend on them queued in stale_,
+    /// those whose heights changed marked so.
+    void markStale(CellRect cells);
+    /// The heights of the blocks still stale (end of update(): before anything draws them).
+    void freshenHeights();
+    static constexpr std::uint8_t kStaleBounds = 1;
+    static constexpr std::uint8_t kStaleHeights = 2;
+    /// Recomputes the bounds of up to `budget` stale blocks (re-queueing candidates whose bounds
+    /// moved); returns how many.
+    std::int64_t drainStale(std::int64_t budget);
     /// Bounds after the surface of `cells` changed (everything when `all`): resident blocks that
     /// depend on them, centres, then the grid, finest level first; with `collect`, the ids of
     /// those whose bounds changed go to recomputed_ (candidates to refresh).
@@ -429,6 +451,8 @@ class Tessellator {
     // the block pool
     BlockBounds block_bounds_;
     std::vector<std::int32_t> pass_;
+    std::vector<std::int32_t> stale_;       ///< blocks whose bounds wait, oldest first
+    std::vector<std::uint8_t> block_stale_; ///< per block slot: kStale* flags (in stale_)
     std::vector<DetailBlocks::CellXY> pass_cells_;
     std::vector<std::int32_t> pass_blocks_;
     std::array<std::int64_t, kBlockVertices> heights_scratch_{};
