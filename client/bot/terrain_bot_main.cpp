@@ -65,6 +65,11 @@ int main(int argc, char** argv) {
              "rendering, off otherwise)")
             ->check(CLI::NonNegativeNumber);
         a->add_option(
+             "--ops-per-frame", config.ops_per_frame,
+             "ops applied per frame at least; a burst waits for the next frames (0: each op as "
+             "it arrives)")
+            ->check(CLI::NonNegativeNumber);
+        a->add_option(
             "--barrier", config.barrier_dir,
             "directory where bots started together meet before settling");
         a->add_option("--peers", config.peers, "bots meeting at --barrier, this one included")

@@ -5,7 +5,9 @@
 //   apply   Replica::applyOp (the core's apply and the hash check), for every op of the frame
 //   feed    surfaceChanges + feedChanges (Tessellator::terrainChanged)
 //   update  Tessellator::update for the frame's camera
-// One op arrives per frame, except every --burst-every frames, when --burst ops arrive at once.
+// One op arrives per frame, except every --burst-every frames, when --burst ops arrive at once;
+// the client applies them paced as the bot and the viewer do (--ops-per-frame, op_pacing.h: a
+// burst waits for the next frames, reported as catch-up frames and the longest wait).
 // Flights: "hover" (60 m above the zone, circling it, looking in), "cross" (10 m above the
 // ground, 20 m/s at 60 frames/s, across the zone and back). --join-after K: the client joins
 // after the first K shots (a late joiner) and receives the rest; --frames: fly at least this many
@@ -21,6 +23,7 @@
 
 #include <terrain/battle.h>
 #include <terrain/client/frame_budget.h>
+#include <terrain/client/op_pacing.h>
 #include <terrain/client/replica.h>
 #include <terrain/client/tessellation_feed.h>
 #include <terrain/procedural_map.h>
@@ -38,6 +41,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <fstream>
 #include <memory>
 #include <string>
@@ -100,6 +104,9 @@ int main(int argc, char** argv) {
     double tau = 1.0;
     std::int64_t max_triangles = 400'000;
     std::int32_t max_blocks = roam::TessellatorOptions{}.max_detail_blocks;
+    std::int64_t work_budget = roam::TessellatorOptions{}.work_budget;
+    std::int64_t stale_budget = roam::TessellatorOptions{}.stale_block_budget;
+    client::OpPacing pacing{.ops_per_frame = client::kDefaultOpsPerFrame};
     int width = 1280;
     int height = 720;
     std::string flight = "hover";
@@ -121,6 +128,15 @@ int main(int argc, char** argv) {
         ->check(CLI::PositiveNumber);
     app.add_option("--max-blocks", max_blocks, "detail blocks resident at once (the pool)")
         ->check(CLI::PositiveNumber);
+    app.add_option(
+           "--ops-per-frame", pacing.ops_per_frame,
+           "ops applied per frame at least, as the bot and the viewer do (0: as they arrive)")
+        ->check(CLI::NonNegativeNumber);
+    app.add_option("--work-budget", work_budget, "splits + merges per frame")
+        ->check(CLI::PositiveNumber);
+    app.add_option(
+           "--stale-budget", stale_budget, "stale detail blocks re-bounded per frame (0: all)")
+        ->check(CLI::NonNegativeNumber);
     app.add_option("--width", width, "viewport width")->check(CLI::Range(64, 8192));
     app.add_option("--height", height, "viewport height")->check(CLI::Range(64, 8192));
     app.add_option("--flight", flight, "hover | cross")->check(CLI::IsMember({"hover", "cross"}));
@@ -177,6 +193,8 @@ int main(int argc, char** argv) {
     to.tau_pixels = tau;
     to.max_triangles = max_triangles;
     to.max_detail_blocks = max_blocks;
+    to.work_budget = work_budget;
+    to.stale_block_budget = stale_budget;
     const auto build_start = bench::Clock::now();
     roam::Tessellator tess(replica.terrain(), to);
     tess.update(flightCamera(flight, 0, replica.terrain(), battle, width, height));
@@ -208,7 +226,11 @@ int main(int argc, char** argv) {
 
     std::vector<double> single_total, single_apply, single_feed, single_update;
     std::vector<double> burst_total;
+    std::vector<double> catch_up_total; // frames after a burst applying more than one op
     std::vector<double> frame_total;
+    std::deque<int> arrived_at; // the frame each waiting op arrived in
+    client::OpPacer pacer(pacing);
+    int max_delay_frames = 0;
     std::vector<double> triangles;
     std::vector<double> error_bound; // pixels: tau, or what the cap forced
     int threshold_moves = 0;
@@ -222,14 +244,27 @@ int main(int argc, char** argv) {
     std::size_t next = 0;
     std::uint64_t seq = 0;
     for (int f = 1; next < sent.size() || f <= min_frames; ++f) {
-        const int arriving = next >= sent.size() ? 0 : f % burst_every == 0 ? burst : 1;
+        const std::size_t received = next + arrived_at.size();
+        const int arriving = received >= sent.size() ? 0
+                             : f % burst_every == 0
+                                 ? static_cast<int>(std::min<std::size_t>(
+                                       static_cast<std::size_t>(burst), sent.size() - received))
+                                 : 1;
+        for (int k = 0; k < arriving; ++k)
+            arrived_at.push_back(f);
+        // the client's pacing: a burst waits for the next frames (client/op_pacing.h)
+        const std::size_t applying = pacer.take(arrived_at.size());
         const auto t0 = bench::Clock::now();
-        for (int k = 0; k < arriving && next < sent.size(); ++k, ++next) {
+        for (std::size_t k = 0; k < applying; ++k, ++next) {
             auto outcome = replica.applyOp(++seq, sent[next].op, sent[next].world_hash);
             if (!outcome || *outcome != client::Replica::OpOutcome::kApplied)
                 hashes_agree = false;
         }
         const double apply_ms = bench::msSince(t0);
+        for (std::size_t k = 0; k < applying; ++k) {
+            max_delay_frames = std::max(max_delay_frames, f - arrived_at.front());
+            arrived_at.pop_front();
+        }
         const auto t1 = bench::Clock::now();
         const client::SurfaceChanges changes =
             client::surfaceChanges(replica.takeDirty(), replica.terrain().spec());
@@ -265,15 +300,15 @@ int main(int argc, char** argv) {
         evicted += fs.blocks_evicted;
         if (f % 25 == 0)
             in_use.push_back(static_cast<double>(tess.pinnedBlockCount()));
-        if (arriving == 0) {
-            // past the battle: frames only
-        } else if (arriving == 1) {
+        if (arriving > 1) {
+            burst_total.push_back(total); // the frame the burst arrives in
+        } else if (applying > 1) {
+            catch_up_total.push_back(total);
+        } else if (applying == 1) {
             single_total.push_back(total);
             single_apply.push_back(apply_ms);
             single_feed.push_back(feed_ms);
             single_update.push_back(update_ms);
-        } else {
-            burst_total.push_back(total);
         }
     }
     if (replica.worldHash() != final_hash)
@@ -281,6 +316,7 @@ int main(int argc, char** argv) {
 
     const bench::Summary single = bench::summarize(single_total);
     const bench::Summary bursts = bench::summarize(burst_total);
+    const bench::Summary catch_up = bench::summarize(catch_up_total);
     const bench::Summary frames = bench::summarize(frame_total);
     const double tess_mib = bench::mib(tess.memoryBytes());
     const double rss_mib = bench::mib(bench::residentBytes());
@@ -311,8 +347,17 @@ int main(int argc, char** argv) {
              {"apply", summaryJson(bench::summarize(single_apply))},
              {"feed", summaryJson(bench::summarize(single_feed))},
              {"update", summaryJson(bench::summarize(single_update))}}},
-        {"burst", Json{{"ops", burst}, {"frame_ms", summaryJson(bursts)}, {"ratio", burst_ratio}}},
+        {"burst",
+         Json{
+             {"ops", burst},
+             {"frame_ms", summaryJson(bursts)},
+             {"ratio", burst_ratio},
+             {"ops_per_frame", pacing.ops_per_frame},
+             {"catch_up_frame_ms", summaryJson(catch_up)},
+             {"catch_up_ratio_max", frames.p50 > 0 ? catch_up.max / frames.p50 : 0.0},
+             {"max_delay_frames", max_delay_frames}}},
         {"frame_ms", summaryJson(frames)},
+        {"work_budget", work_budget},
         {"triangles", summaryJson(bench::summarize(triangles))},
         {"error_bound_pixels", summaryJson(bench::summarize(error_bound))},
         {"threshold_moves", threshold_moves},
@@ -322,6 +367,7 @@ int main(int argc, char** argv) {
         {"detail_blocks",
          Json{
              {"pool", max_blocks},
+             {"stale_budget", stale_budget},
              {"resident", tess.blockCount()},
              {"in_use", summaryJson(bench::summarize(in_use))},
              {"materialised", materialised},
@@ -350,6 +396,11 @@ int main(int argc, char** argv) {
         "  burst of %d: p50 %.2f ms (%.1fx the median frame %.2f ms); rebuild frames %d, capped "
         "frames %d\n",
         burst, bursts.p50, burst_ratio, frames.p50, rebuilds, capped_frames);
+    std::printf(
+        "  paced at %d ops a frame: catch-up frames p50 %.2f max %.2f ms (%.1fx the median), "
+        "ops waited up to %d frames\n",
+        pacing.ops_per_frame, catch_up.p50, catch_up.max,
+        frames.p50 > 0 ? catch_up.max / frames.p50 : 0.0, max_delay_frames);
     std::printf(
         "  error bound px: p50 %.2f max %.2f (threshold moved in %d frames)\n"
         "  triangles p50 %.0f max %.0f; tessellator %.1f MiB, RSS %.1f MiB; first frame %.0f "

@@ -344,6 +344,62 @@ TEST(Session, ForcedHashMismatchIsRepairedByTileRequest) {
     EXPECT_EQ(victim.replica.terrain().computeWorldHash(), srv.worldHash());
 }
 
+TEST(Session, APacedClientSpreadsABurstOverFramesAndConverges) {
+    TestServer srv(smallMap(), fastConfig());
+    asio::io_context io;
+    TestClient deformer(io, srv.port(), token(1, Role::kDeformer));
+    TestClient paced(
+        io, srv.port(), token(2, Role::kViewer), true, {.ops_per_frame = 2, .catch_up_frames = 4});
+    ASSERT_TRUE(
+        runUntil(io, [&] { return deformer.replica.ready() && paced.connection->synced(); }));
+    std::mt19937_64 rng(5);
+    const WorldSpec spec = deformer.replica.terrain().spec();
+    for (int i = 0; i < 12; ++i)
+        deformer.connection->requestDeform(randomCrater(rng, spec));
+    // every op has arrived; none is applied until the frame loop asks
+    ASSERT_TRUE(runUntil(
+        io, [&] { return deformer.answers.size() == 12 && paced.connection->opsWaiting() == 12; }));
+    ASSERT_EQ(srv.seq(), 12u);
+    EXPECT_EQ(paced.replica.seq(), 0u);
+    EXPECT_FALSE(paced.connection->synced()); // ops wait: not the server's state yet
+    // 12 waiting, caught up within 4 frames: 3 a frame (more than the 2 asked)
+    std::vector<std::size_t> per_frame;
+    while (paced.connection->opsWaiting() > 0)
+        per_frame.push_back(paced.connection->applyArrived());
+    EXPECT_EQ(per_frame, (std::vector<std::size_t>{3, 3, 3, 3}));
+    EXPECT_TRUE(paced.connection->synced());
+    EXPECT_EQ(paced.replica.seq(), 12u);
+    EXPECT_EQ(paced.replica.worldHash(), srv.worldHash());
+    EXPECT_EQ(paced.replica.stats().hash_mismatches, 0u);
+    EXPECT_EQ(paced.connection->applyArrived(), 0u);
+}
+
+TEST(Session, APacedClientThatDivergesIsRepairedWithItsInboxApplied) {
+    TestServer srv(smallMap(), fastConfig());
+    asio::io_context io;
+    TestClient deformer(io, srv.port(), token(1, Role::kDeformer));
+    TestClient victim(
+        io, srv.port(), token(2, Role::kViewer), true, {.ops_per_frame = 1, .catch_up_frames = 64});
+    ASSERT_TRUE(runUntil(io, [&] { return deformer.replica.ready() && victim.replica.ready(); }));
+    ASSERT_TRUE(victim.replica.terrainForTesting()
+                    .apply(*quantizeOp(
+                        {OpKind::kRaise, 200, 200, 8, 2, 1}, victim.replica.terrain().spec()))
+                    .ok());
+    for (int i = 0; i < 8; ++i)
+        deformer.connection->requestDeform(OpRequest{OpKind::kCrater, 20.0 + 3 * i, 20, 3, 1, 0.3});
+    // one op a frame: the first diverges and asks for a repair while the rest still wait; the
+    // repair, at the server's later seq, applies them first
+    ASSERT_TRUE(runUntil(io, [&] {
+        victim.connection->applyArrived();
+        return deformer.answers.size() == 8 && victim.connection->synced() &&
+               victim.replica.seq() == 8 && victim.replica.worldHash() == srv.worldHash();
+    }));
+    EXPECT_GE(victim.replica.stats().hash_mismatches, 1u);
+    EXPECT_GE(victim.replica.stats().repairs, 1u);
+    EXPECT_EQ(victim.replica.stats().snapshots, 1u); // repaired by tiles, not a new snapshot
+    EXPECT_EQ(victim.replica.terrain().computeWorldHash(), srv.worldHash());
+}
+
 TEST(Session, HeightAndRayQueriesMatchTheReplica) {
     TestServer srv(smallMap(), fastConfig());
     asio::io_context io;

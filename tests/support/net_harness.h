@@ -95,9 +95,15 @@ struct TestClient {
     std::vector<client::DeformAnswer> answers;
     std::vector<std::string> disconnects;
 
-    TestClient(asio::io_context& io, std::uint16_t port, std::string tok, bool reconnect = true) {
+    TestClient(
+        asio::io_context& io,
+        std::uint16_t port,
+        std::string tok,
+        bool reconnect = true,
+        client::OpPacing pacing = {}) {
         client::ConnectionConfig config;
         config.port = port;
+        config.pacing = pacing;
         config.token = std::move(tok);
         config.reconnect = reconnect;
         config.reconnect_delay_seconds = 0.05;

@@ -61,6 +61,7 @@ Result<BotReport> runBot(const BotConfig& config) {
     cc.port = config.port;
     cc.token = config.token;
     cc.client_name = "terrain-bot/" + config.name;
+    cc.pacing.ops_per_frame = config.ops_per_frame;
     auto connection = std::make_shared<client::Connection>(io, cc, replica);
     int answers_pending = 0;
     connection->on_deform_reply = [&](const client::DeformAnswer& a) {
@@ -82,6 +83,7 @@ Result<BotReport> runBot(const BotConfig& config) {
     const Clock::time_point join_start = Clock::now();
     // a final refusal (a bad token) closes the connection for good: no point waiting
     pollUntil(io, config.join_timeout_seconds, [&] {
+        connection->applyAllArrived(); // no frames yet
         return connection->synced() || connection->state() == client::Connection::State::kClosed;
     });
     if (!connection->synced()) {
@@ -151,6 +153,7 @@ Result<BotReport> runBot(const BotConfig& config) {
         const Clock::time_point t0 = Clock::now();
         io.poll();
         io.restart();
+        connection->applyArrived(); // this frame's share of what arrived
         absorb();
         const Clock::time_point t1 = Clock::now();
         caps.push_back(static_cast<double>(tess.options().max_triangles));
@@ -216,6 +219,7 @@ Result<BotReport> runBot(const BotConfig& config) {
         return config.settle_timeout_seconds - secondsSince(settle_start);
     };
     bool settled = pollUntil(io, timeLeft(), [&] {
+        connection->applyAllArrived(); // settling draws no frames
         absorb();
         return answers_pending <= 0;
     });
@@ -225,6 +229,7 @@ Result<BotReport> runBot(const BotConfig& config) {
         std::filesystem::create_directories(config.barrier_dir);
         std::ofstream(config.barrier_dir / (config.name + ".done")) << replica.seq() << "\n";
         settled = pollUntil(io, timeLeft(), [&] {
+            connection->applyAllArrived();
             absorb();
             int done = 0;
             std::error_code ec;
@@ -235,6 +240,7 @@ Result<BotReport> runBot(const BotConfig& config) {
     }
     if (settled)
         settled = pollUntil(io, timeLeft(), [&] {
+            connection->applyAllArrived();
             absorb();
             return secondsSince(last_op) >= config.settle_seconds && connection->synced();
         });

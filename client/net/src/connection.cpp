@@ -25,7 +25,8 @@ bool isFinal(pb::Reason reason) {
 
 Connection::Connection(asio::io_context& io, ConnectionConfig config, Replica& replica)
     : io_(io), config_(std::move(config)), replica_(replica), socket_(io), resolver_(io),
-      timer_(io), reader_(config_.max_frame_bytes), assembler_(config_.max_snapshot_bytes) {}
+      timer_(io), reader_(config_.max_frame_bytes), assembler_(config_.max_snapshot_bytes),
+      pacer_(config_.pacing) {}
 
 Connection::~Connection() = default;
 
@@ -186,6 +187,8 @@ void Connection::handle(const pb::Envelope& envelope) {
             }
             ++stats_.snapshots;
             const std::uint64_t seq = snapshot->sequence;
+            inbox_.clear(); // older than the snapshot
+            pacer_.reset();
             replica_.loadSnapshot(std::move(*snapshot));
             awaiting_snapshot_ = false;
             repair_in_flight_ = false;
@@ -261,8 +264,18 @@ void Connection::onOpApplied(const pb::OpApplied& op, std::size_t frame_bytes) {
         lost("bad op from the server: " + decoded.error().message, false);
         return;
     }
-    const std::uint64_t seq = wire::appliedSeq(op, replica_.seq());
-    Result<Replica::OpOutcome> outcome = replica_.applyOp(seq, *decoded, op.world_hash());
+    // an implicit seq follows the last op received, applied or still waiting
+    const std::uint64_t seq =
+        wire::appliedSeq(op, inbox_.empty() ? replica_.seq() : inbox_.back().seq);
+    if (config_.pacing.paced()) {
+        inbox_.push_back({seq, *decoded, op.world_hash()});
+        return;
+    }
+    applyOne(seq, *decoded, op.world_hash());
+}
+
+void Connection::applyOne(std::uint64_t seq, const DeformOp& op, std::uint64_t world_hash) {
+    Result<Replica::OpOutcome> outcome = replica_.applyOp(seq, op, world_hash);
     if (!outcome) {
         // a gap or an op our state cannot take: start again from a snapshot
         requestSnapshot();
@@ -274,8 +287,30 @@ void Connection::onOpApplied(const pb::OpApplied& op, std::size_t frame_bytes) {
         on_applied(seq);
 }
 
+std::size_t Connection::applyWaiting(std::size_t count) {
+    std::size_t applied = 0;
+    // a failed apply asks for a snapshot, which empties the inbox
+    while (applied < count && !inbox_.empty()) {
+        const Arrived a = std::move(inbox_.front());
+        inbox_.pop_front();
+        applyOne(a.seq, a.op, a.world_hash);
+        ++applied;
+    }
+    return applied;
+}
+
+std::size_t Connection::applyArrived() {
+    return applyWaiting(pacer_.take(inbox_.size()));
+}
+
+std::size_t Connection::applyAllArrived() {
+    pacer_.reset();
+    return applyWaiting(inbox_.size());
+}
+
 void Connection::onRepairState(const pb::RepairState& state) {
     repair_in_flight_ = false;
+    applyAllArrived(); // the repair is at the seq of the last op before it on the stream
     if (!replica_.ready() || awaiting_snapshot_)
         return;
     // at most the tiles asked for: bounds what the reply may make this client allocate
@@ -324,6 +359,8 @@ void Connection::requestSnapshot() {
     if (awaiting_snapshot_)
         return;
     awaiting_snapshot_ = true;
+    inbox_.clear(); // the snapshot supersedes them
+    pacer_.reset();
     pb::Envelope request;
     request.mutable_snapshot_request();
     send(request);
@@ -418,6 +455,8 @@ void Connection::lost(const std::string& why, bool final_reason) {
         return;
     ++stats_.disconnects;
     ++generation_;
+    inbox_.clear(); // the resume asks for them again from the replica's seq
+    pacer_.reset();
     last_disconnect_ = why;
     asio::error_code ignored;
     socket_.shutdown(asio::ip::tcp::socket::shutdown_both, ignored);

@@ -256,6 +256,8 @@ void Viewer::pollNetwork() {
     // poll() stops the context when it runs out of work; restart so the next poll runs
     io_.restart();
     io_.poll();
+    if (connection_)
+        connection_->applyArrived(); // this frame's share of what arrived
 }
 
 Status Viewer::join() {
@@ -264,6 +266,7 @@ Status Viewer::join() {
     config.port = options_.port;
     config.token = options_.token;
     config.client_name = "terrain-viewer";
+    config.pacing.ops_per_frame = options_.ops_per_frame;
     connection_ = std::make_shared<client::Connection>(io_, config, replica_);
     connection_->on_deform_reply = [this](const client::DeformAnswer& a) {
         --answers_pending_;
@@ -305,6 +308,7 @@ Status Viewer::join() {
             return makeError(ErrorCode::kIo, "stopped while joining " + address_);
         io_.restart();
         io_.run_for(std::chrono::milliseconds(10));
+        connection_->applyAllArrived(); // no terrain drawn yet
         // keep the window alive: the sky and the overlay saying what it waits for
         const render::GlApi& gl = window_->gl();
         gl.Viewport(0, 0, window_->width(), window_->height());
@@ -498,6 +502,7 @@ void Viewer::drain() {
             break;
         io_.restart();
         io_.run_for(std::chrono::milliseconds(10));
+        connection_->applyAllArrived(); // the last frame is drawn
     }
 }
 

@@ -30,6 +30,11 @@ void addViewerOptions(CLI::App& app, ViewerOptions& o) {
     app.add_option(
         "--frame-ms", o.frame_ms,
         "frame time to hold by lowering the triangle cap (0: off; tau then wins)");
+    app.add_option(
+           "--ops-per-frame", o.ops_per_frame,
+           "ops applied per frame at least; a burst waits for the next frames (0: each op as it "
+           "arrives)")
+        ->check(CLI::NonNegativeNumber);
     app.add_flag("--wireframe", o.wireframe, "start drawing lines over the shading");
     app.add_option("--crater-radius", o.crater_radius, "crater radius in metres");
     app.add_option("--crater-depth", o.crater_depth, "crater depth in metres");

@@ -7,6 +7,7 @@
 
 #include <terrain/bot/bot_report.h>
 #include <terrain/bot/bot_script.h>
+#include <terrain/client/op_pacing.h>
 #include <terrain/render/offscreen.h>
 #include <terrain/result.h>
 
@@ -27,6 +28,9 @@ struct BotConfig {
     /// Frame time to hold by steering the triangle cap below max_triangles (client/frame_budget.h);
     /// 0: off; negative: kDefaultRenderFrameMs when rendering, off otherwise.
     double frame_ms = -1.0;
+    /// Ops applied per frame at least (a burst waits for the next frames; client/op_pacing.h);
+    /// 0: each op as it arrives.
+    int ops_per_frame = client::kDefaultOpsPerFrame;
     bool render = false; ///< offscreen: frame times include drawing
     render::OffscreenBackend backend = render::OffscreenBackend::kOsmesa;
     std::filesystem::path png_dir; ///< before.png, after.png (+ every png_every frames)

@@ -5,6 +5,7 @@
 // last verified seq. Runs on the caller's io_context (a game calls io.poll() once per frame);
 // single-threaded: every callback runs on that thread.
 
+#include <terrain/client/op_pacing.h>
 #include <terrain/client/replica.h>
 #include <terrain/deform_op.h>
 #include <terrain/wire/codec.h>
@@ -13,6 +14,7 @@
 
 #include <asio.hpp>
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <string>
@@ -34,6 +36,9 @@ struct ConnectionConfig {
     int max_repair_rounds = 3;
     /// Tiles per RepairRequest (the server's limit is 64); more are asked in later rounds.
     std::size_t max_repair_tiles = 64;
+    /// Unpaced (the default), ops are applied as they are read; paced, they wait in the inbox
+    /// until the frame loop calls applyArrived() (op_pacing.h), so a burst is spread over frames.
+    OpPacing pacing;
 };
 
 struct ConnectionStats {
@@ -90,8 +95,16 @@ class Connection : public std::enable_shared_from_this<Connection> {
     State state() const { return state_; }
     /// True when the replica holds the server's state at the last broadcast it received.
     bool synced() const {
-        return state_ == State::kLive && replica_.ready() && !replica_.diverged();
+        return state_ == State::kLive && replica_.ready() && !replica_.diverged() && inbox_.empty();
     }
+
+    /// Paced: applies this frame's share of the ops waiting (OpPacer); returns how many.
+    /// Call once per frame, after polling the io_context.
+    std::size_t applyArrived();
+    /// Applies every op waiting (a loop that is not drawing frames, or before a measurement).
+    std::size_t applyAllArrived();
+    /// Ops received and not applied yet (always 0 unpaced).
+    std::size_t opsWaiting() const { return inbox_.size(); }
 
     std::uint32_t requestDeform(const OpRequest& request);
     std::uint32_t requestDeform(const DeformOp& op);
@@ -121,6 +134,9 @@ class Connection : public std::enable_shared_from_this<Connection> {
     void readMore();
     void handle(const wire::pb::Envelope& envelope);
     void onOpApplied(const wire::pb::OpApplied& op, std::size_t frame_bytes);
+    /// One arrived op onto the replica: hash check, repair or snapshot request, on_applied.
+    void applyOne(std::uint64_t seq, const DeformOp& op, std::uint64_t world_hash);
+    std::size_t applyWaiting(std::size_t count);
     void onRepairState(const wire::pb::RepairState& state);
     void requestRepair(std::vector<std::int32_t> tiles, bool want_hashes);
     void requestSnapshot();
@@ -142,6 +158,15 @@ class Connection : public std::enable_shared_from_this<Connection> {
     std::vector<std::uint8_t> writing_; // frames being written
     bool write_busy_ = false;
     bool awaiting_snapshot_ = false;
+    struct Arrived {
+        std::uint64_t seq = 0;
+        DeformOp op;
+        std::uint64_t world_hash = 0;
+    };
+    /// Paced only: ops read and not applied yet, in seq order. Emptied by a snapshot (which
+    /// supersedes them) and by a lost link (the resume asks from the replica's seq again).
+    std::deque<Arrived> inbox_;
+    OpPacer pacer_;
     bool repair_in_flight_ = false;
     int repair_rounds_ = 0;
     std::size_t repair_tiles_requested_ = 0;

@@ -4,6 +4,7 @@
 // tessellation, and the scripted-run options that tests use (--frames, --fly, --auto-crater,
 // --screenshot, --report).
 
+#include <terrain/client/op_pacing.h>
 #include <terrain/result.h>
 
 #include <cstdint>
@@ -30,6 +31,9 @@ struct ViewerOptions {
     /// Frame time (tessellation + drawing) to hold by lowering the triangle cap; 0: off. 50 ms
     /// is 20 frames a second from llvmpipe at 720p (about 90,000 lit triangles).
     double frame_ms = 50.0;
+    /// Ops applied per frame at least; a burst waits for the next frames (0: each op as it
+    /// arrives; client/op_pacing.h).
+    int ops_per_frame = client::kDefaultOpsPerFrame;
     bool wireframe = false;
     double crater_radius = 8.0; ///< metres
     double crater_depth = 3.0;  ///< metres
