@@ -303,7 +303,7 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
         for (const Action& a : merges_) {
             if ((state(a.id) & kMergeCandidate) == 0 || !active(a.id))
                 continue;
-            if (stats.splits + stats.merges >= options_.work_budget) {
+            if (workSpent(stats) >= options_.work_budget) {
                 deferred_.push_back(a.id);
                 continue;
             }
@@ -316,7 +316,7 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
         for (const Action& a : splits_) {
             if ((state(a.id) & kSplitCandidate) == 0 || active(a.id))
                 continue;
-            if (stats.splits + stats.merges >= options_.work_budget) {
+            if (workSpent(stats) >= options_.work_budget) {
                 deferred_.push_back(a.id);
                 unmet_ = std::max(unmet_, a.priority);
                 continue;
@@ -328,7 +328,7 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
             }
         }
         splits_.clear();
-        if (stats.splits + stats.merges >= options_.work_budget) {
+        if (workSpent(stats) >= options_.work_budget) {
             stats.budget_exhausted = true;
             deferred_.insert(deferred_.end(), due_.begin(), due_.end());
             due_.clear();
@@ -386,6 +386,7 @@ FrameStats Tessellator::update(const Camera& camera) {
     const std::int64_t pool_refusals = pool_refusals_;
     const std::int64_t materialised = materialised_;
     const std::int64_t evicted = evicted_;
+    made_at_frame_start_ = materialised_ + grains_materialised_;
     const double teleport = options_.teleport_metres > 0.0
                                 ? options_.teleport_metres
                                 : 8.0 * kLatticePerTile * metres_per_lattice_;

@@ -189,6 +189,7 @@ void Tessellator::materialiseGrain(std::int32_t block, int g) {
     attachGrain(block, g);
     if (!defer_bounds_)
         boundGrains(block, 1u << g);
+    ++grains_materialised_;
 }
 
 void Tessellator::boundGrains(std::int32_t block, unsigned grain_mask) {

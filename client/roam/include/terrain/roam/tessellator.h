@@ -75,8 +75,13 @@ struct TessellatorOptions {
     /// A block no diamond refers to is released once unused for about this many frames (a
     /// sweep looks at a few hundred slots per frame); 0: only when the pool needs its slot.
     std::int32_t detail_block_idle_frames = 600;
-    /// Splits + merges per frame in kSplitMerge; the rest waits for the next frame.
-    std::int64_t work_budget = 1'000'000;
+    /// Work per frame in kSplitMerge, in splits: a split or merge counts 1, a detail block or
+    /// grain made on the way kMaterialiseWork (its kernel pass); the rest waits for the next
+    /// frame, and the frame reports budget_exhausted. A crater in a battle needs about 2,000; a
+    /// U-turn low over the battle about 150,000 splits and 13,000 blocks (spread over frames).
+    std::int64_t work_budget = 40'000;
+    /// A block or grain materialised during split/merge costs this many splits of work_budget.
+    static constexpr std::int64_t kMaterialiseWork = 16;
     /// Detail blocks whose bounds an op made stale, recomputed per frame (their heights follow
     /// the op at once, so the mesh drawn is the new surface); the rest wait for the next frames,
     /// and meanwhile the error bound is not exact there (FrameStats::stale_blocks). A crater in
@@ -414,6 +419,12 @@ class Tessellator {
     void refineTopDown(const ViewMetric& m, const Triangle& t, FrameStats& stats, bool& capped);
     void collectCandidates(const Triangle& t);
     void updateSplitMerge(const ViewMetric& m, FrameStats& stats);
+    /// This frame's split/merge work so far, in the units of TessellatorOptions::work_budget.
+    std::int64_t workSpent(const FrameStats& stats) const {
+        return stats.splits + stats.merges +
+               TessellatorOptions::kMaterialiseWork *
+                   (materialised_ + grains_materialised_ - made_at_frame_start_);
+    }
     void evaluate(const ViewMetric& m, DiamondId id, FrameStats& stats);
     void setCandidate(DiamondId id, std::uint8_t kind);
     void clearCandidate(DiamondId id);
@@ -474,7 +485,10 @@ class Tessellator {
     std::uint64_t pool_full_epoch_ = ~std::uint64_t{0}; ///< epoch no slot could be freed in
     std::int64_t pool_refusals_ = 0;                    ///< since construction
     std::int64_t materialised_ = 0;
+    std::int64_t grains_materialised_ = 0; ///< finer grains (1 and 2) made
     std::int64_t evicted_ = 0;
+    /// materialised_ + grains_materialised_ when the frame began (its work budget counts them)
+    std::int64_t made_at_frame_start_ = 0;
 
     // per tile
     std::vector<TileMesh> tiles_;
