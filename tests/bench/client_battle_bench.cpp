@@ -227,6 +227,7 @@ int main(int argc, char** argv) {
     std::vector<double> single_total, single_apply, single_feed, single_update;
     std::vector<double> burst_total;
     std::vector<double> catch_up_total; // frames after a burst applying more than one op
+    std::vector<double> quiet_total;    // frames applying no op (after the battle, --frames)
     std::vector<double> frame_total;
     std::deque<int> arrived_at; // the frame each waiting op arrived in
     client::OpPacer pacer(pacing);
@@ -309,6 +310,8 @@ int main(int argc, char** argv) {
             single_apply.push_back(apply_ms);
             single_feed.push_back(feed_ms);
             single_update.push_back(update_ms);
+        } else {
+            quiet_total.push_back(total); // no op applied: the flight alone
         }
     }
     if (replica.worldHash() != final_hash)
@@ -317,6 +320,7 @@ int main(int argc, char** argv) {
     const bench::Summary single = bench::summarize(single_total);
     const bench::Summary bursts = bench::summarize(burst_total);
     const bench::Summary catch_up = bench::summarize(catch_up_total);
+    const bench::Summary quiet = bench::summarize(quiet_total);
     const bench::Summary frames = bench::summarize(frame_total);
     const double tess_mib = bench::mib(tess.memoryBytes());
     const double rss_mib = bench::mib(bench::residentBytes());
@@ -357,6 +361,7 @@ int main(int argc, char** argv) {
              {"catch_up_ratio_max", frames.p50 > 0 ? catch_up.max / frames.p50 : 0.0},
              {"max_delay_frames", max_delay_frames}}},
         {"frame_ms", summaryJson(frames)},
+        {"quiet_frame_ms", summaryJson(quiet)},
         {"work_budget", work_budget},
         {"triangles", summaryJson(bench::summarize(triangles))},
         {"error_bound_pixels", summaryJson(bench::summarize(error_bound))},
@@ -401,6 +406,10 @@ int main(int argc, char** argv) {
         "ops waited up to %d frames\n",
         pacing.ops_per_frame, catch_up.p50, catch_up.max,
         frames.p50 > 0 ? catch_up.max / frames.p50 : 0.0, max_delay_frames);
+    if (quiet.n > 0)
+        std::printf(
+            "  frames with no op (the flight alone): %zu, p50 %.2f p99 %.2f max %.2f ms\n", quiet.n,
+            quiet.p50, quiet.p99, quiet.max);
     std::printf(
         "  error bound px: p50 %.2f max %.2f (threshold moved in %d frames)\n"
         "  triangles p50 %.0f max %.0f; tessellator %.1f MiB, RSS %.1f MiB; first frame %.0f "
