@@ -245,6 +245,7 @@ Result<BotReport> runBot(const BotConfig& config) {
             return secondsSince(last_op) >= config.settle_seconds && connection->synced();
         });
     frame(first);
+    connection->applyAllArrived(); // the report speaks for every op received
     if (gpu.terrain && !config.png_dir.empty())
         writePng("after.png");
     report.seconds = secondsSince(run_start);

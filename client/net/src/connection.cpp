@@ -170,6 +170,8 @@ void Connection::handle(const pb::Envelope& envelope) {
         break;
     }
     case pb::Envelope::kSnapshotBegin:
+        inbox_.clear(); // the snapshot replaces what they would have made
+        pacer_.reset();
         if (Status s = assembler_.begin(envelope.snapshot_begin()); !s)
             lost("snapshot: " + s.error().message, false);
         break;
@@ -288,6 +290,11 @@ void Connection::applyOne(std::uint64_t seq, const DeformOp& op, std::uint64_t w
 }
 
 std::size_t Connection::applyWaiting(std::size_t count) {
+    if (count == 0)
+        return 0;
+    // called from the frame loop, not a handler: an on_applied callback may drop the last
+    // owner of this connection
+    const std::shared_ptr<Connection> self = shared_from_this();
     std::size_t applied = 0;
     // a failed apply asks for a snapshot, which empties the inbox
     while (applied < count && !inbox_.empty()) {
@@ -309,8 +316,10 @@ std::size_t Connection::applyAllArrived() {
 }
 
 void Connection::onRepairState(const pb::RepairState& state) {
+    // the repair is at the seq of the last op before it on the stream; an op of those that
+    // diverges asks for no second repair while this one is being handled
+    applyAllArrived();
     repair_in_flight_ = false;
-    applyAllArrived(); // the repair is at the seq of the last op before it on the stream
     if (!replica_.ready() || awaiting_snapshot_)
         return;
     // at most the tiles asked for: bounds what the reply may make this client allocate
