@@ -273,34 +273,13 @@ void fillCellHeights(
     }
     const bool real = cx < t.spec().cellsX() && cy < t.spec().cellsY();
     const DetailPatch* patch = real ? t.findPatch(cx, cy) : nullptr;
-    if (patch != nullptr && stride == 1) {
-        std::array<std::int64_t, kPatchGridVertices> numerators{};
-        gridNumerators(*patch, numerators);
-        for (std::size_t i = 0; i < numerators.size(); ++i)
-            out[i] = roundDiv(numerators[i] * kFineUnitsPerQuantum, kGridDenominator);
-        return;
-    }
     if (patch != nullptr) {
-        // gridNumerators' sums (rows first, then columns) at the strided points only: the same
-        // integers, so the same heights
-        const auto& w = bspline::gridWeights();
-        std::array<std::int64_t, bspline::kControls * kBlockSide> partial{};
-        for (int j = 0; j < bspline::kControls; ++j)
-            for (int k = 0; k < kBlockSide; k += stride) {
-                std::int64_t s = 0;
-                for (int i = 0; i < bspline::kControls; ++i)
-                    s += w[static_cast<std::size_t>(k)][static_cast<std::size_t>(i)] *
-                         patch->at(i, j);
-                partial[static_cast<std::size_t>(j * kBlockSide + k)] = s;
-            }
-        for (int l = 0; l < kBlockSide; l += stride)
-            for (int k = 0; k < kBlockSide; k += stride) {
-                std::int64_t z = 0;
-                for (int j = 0; j < bspline::kControls; ++j)
-                    z += w[static_cast<std::size_t>(l)][static_cast<std::size_t>(j)] *
-                         partial[static_cast<std::size_t>(j * kBlockSide + k)];
-                out[static_cast<std::size_t>(l * kBlockSide + k)] =
-                    roundDiv(z * kFineUnitsPerQuantum, kGridDenominator);
+        std::array<std::int64_t, kPatchGridVertices> numerators{};
+        gridNumerators(*patch, numerators, stride);
+        for (std::int32_t l = 0; l < kBlockSide; l += stride)
+            for (std::int32_t k = 0; k < kBlockSide; k += stride) {
+                const auto i = static_cast<std::size_t>(l * kBlockSide + k);
+                out[i] = roundDiv(numerators[i] * kFineUnitsPerQuantum, kGridDenominator);
             }
         return;
     }

@@ -173,19 +173,20 @@ std::int64_t gridNumerator(const DetailPatch& p, int k, int l) {
     return z;
 }
 
-void gridNumerators(const DetailPatch& p, std::array<std::int64_t, kPatchGridVertices>& out) {
+void gridNumerators(
+    const DetailPatch& p, std::array<std::int64_t, kPatchGridVertices>& out, int stride) {
     const auto& w = bspline::gridWeights();
     // rows first: 5 x 17 partial sums, then columns
     std::array<std::int64_t, bspline::kControls * bspline::kGridSamples> partial{};
     for (int j = 0; j < bspline::kControls; ++j)
-        for (int k = 0; k < bspline::kGridSamples; ++k) {
+        for (int k = 0; k < bspline::kGridSamples; k += stride) {
             std::int64_t s = 0;
             for (int i = 0; i < bspline::kControls; ++i)
                 s += w[static_cast<size_t>(k)][static_cast<size_t>(i)] * p.at(i, j);
             partial[static_cast<size_t>(j * bspline::kGridSamples + k)] = s;
         }
-    for (int l = 0; l < bspline::kGridSamples; ++l)
-        for (int k = 0; k < bspline::kGridSamples; ++k) {
+    for (int l = 0; l < bspline::kGridSamples; l += stride)
+        for (int k = 0; k < bspline::kGridSamples; k += stride) {
             std::int64_t z = 0;
             for (int j = 0; j < bspline::kControls; ++j)
                 z += w[static_cast<size_t>(l)][static_cast<size_t>(j)] *
