@@ -77,14 +77,18 @@ void DetailBlocks::reset(const Terrain& t) {
     TERRAIN_ASSERT(
         std::uint64_t{static_cast<std::uint32_t>(cells_x_)} * static_cast<std::uint32_t>(cells_y_) <
         kPatchBit);
-    record_of_cell_.assign(
-        static_cast<std::size_t>(cells_x_) * static_cast<std::size_t>(cells_y_), -1);
+    pages_x_ = (cells_x_ + kPageCells - 1) / kPageCells;
+    const auto pages = static_cast<std::size_t>(pages_x_) *
+                       static_cast<std::size_t>((cells_y_ + kPageCells - 1) / kPageCells);
+    pages_.assign(pages, {});
+    page_records_.assign(pages, 0);
     records_.clear();
     free_records_.clear();
     record_of_block_.clear();
     free_.clear();
     // every patch cell marks its halo, in cell order so record ids are deterministic
-    std::vector<std::uint8_t> needed(record_of_cell_.size(), 0);
+    std::vector<std::uint8_t> needed(
+        static_cast<std::size_t>(cells_x_) * static_cast<std::size_t>(cells_y_), 0);
     for (std::int32_t tile = 0; tile < t.spec().tileCount(); ++tile) {
         const std::int32_t tx = tile % t.spec().tilesX();
         const std::int32_t ty = tile / t.spec().tilesX();
@@ -175,13 +179,28 @@ std::int32_t DetailBlocks::takeRecord(std::int32_t cx, std::int32_t cy) {
     }
     records_[idx(r)] = {};
     records_[idx(r)].cell = static_cast<std::uint32_t>(cellIndex(cx, cy));
-    record_of_cell_[cellIndex(cx, cy)] = r;
+    setRecordOf(cx, cy, r);
     return r;
+}
+
+void DetailBlocks::setRecordOf(std::int32_t cx, std::int32_t cy, std::int32_t r) {
+    const std::size_t p = pageOf(cx, cy);
+    std::vector<std::int32_t>& page = pages_[p];
+    if (r >= 0) {
+        if (page.empty())
+            page.assign(static_cast<std::size_t>(kPageCells * kPageCells), -1);
+        ++page_records_[p];
+        page[pageSlot(cx, cy)] = r;
+    } else if (--page_records_[p] == 0) {
+        std::vector<std::int32_t>().swap(page);
+    } else {
+        page[pageSlot(cx, cy)] = -1;
+    }
 }
 
 void DetailBlocks::dropRecord(std::int32_t r) {
     const CellXY c = recordCell(r);
-    record_of_cell_[cellIndex(c.x, c.y)] = -1;
+    setRecordOf(c.x, c.y, -1);
     records_[idx(r)] = {};
     free_records_.push_back(r);
 }
@@ -251,8 +270,11 @@ void DetailBlocks::release(std::int32_t block) {
 }
 
 std::size_t DetailBlocks::memoryBytes() const {
-    return record_of_cell_.capacity() * sizeof(std::int32_t) +
-           records_.capacity() * sizeof(Record) +
+    std::size_t table =
+        pages_.capacity() * sizeof(pages_[0]) + page_records_.capacity() * sizeof(std::int32_t);
+    for (const auto& page : pages_)
+        table += page.capacity() * sizeof(std::int32_t);
+    return table + records_.capacity() * sizeof(Record) +
            (free_records_.capacity() + record_of_block_.capacity() + free_.capacity()) *
                sizeof(std::int32_t);
 }

@@ -22,6 +22,7 @@ Tessellator::Tessellator(const Terrain& terrain, const TessellatorOptions& optio
 
 void Tessellator::adoptSpec() {
     spec_ = terrain_->spec();
+    codec_ = BoundsCodec(spec_.metresPerUnit());
     metres_per_lattice_ = spec_.spacingMetres() / kLatticePerCell;
     metres_per_fine_ = spec_.metresPerUnit() / static_cast<double>(kFineUnitsPerQuantum);
     grid_w_ = spec_.paddedWidth();
@@ -42,7 +43,7 @@ void Tessellator::adoptSpec() {
     tile_holes_.clear();
     tile_holes_.resize(tiles);
     tile_vertices_.assign(tiles, 0);
-    bounds_.assign(grid_count_, Bounds{});
+    bounds_.assign(grid_count_, PackedBounds{});
     bounds_.shrink_to_fit();
     state_.assign(grid_count_, 0);
     state_.shrink_to_fit();
@@ -454,12 +455,12 @@ void Tessellator::setTau(double tau_pixels) {
 
 TessellatorMemory Tessellator::memory() const {
     TessellatorMemory m;
-    m.grid = (bounds_.capacity() + centre_cache_.capacity()) * sizeof(Bounds) + state_.capacity() +
-             centre_state_.capacity();
+    m.grid = bounds_.capacity() * sizeof(PackedBounds) + centre_cache_.capacity() * sizeof(Bounds) +
+             state_.capacity() + centre_state_.capacity();
     m.records = blocks_.memoryBytes() + block_chunks_.capacity() * sizeof(block_chunks_[0]);
     for (std::size_t g = 0; g < kGrains; ++g) {
         const Grain& grain = grains_[g];
-        m.grains[g] = grain.bounds.capacity() * sizeof(Bounds) + grain.state.capacity() +
+        m.grains[g] = grain.bounds.capacity() * sizeof(PackedBounds) + grain.state.capacity() +
                       grain.heights.capacity() * sizeof(std::uint32_t) +
                       grain.base.capacity() * sizeof(std::int64_t) +
                       (grain.block.capacity() + grain.segment.capacity() + grain.free.capacity()) *

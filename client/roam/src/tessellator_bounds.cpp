@@ -160,9 +160,9 @@ void Tessellator::resizeDiamondState() {
 
 bool Tessellator::storeBounds(DiamondId id, float delta, float zlo, float zhi) {
     TERRAIN_ASSERT(id < grid_count_);
-    Bounds& b = bounds_[id];
-    const bool changed = b.delta != delta || b.zlo != zlo || b.zhi != zhi;
-    b = {delta, zlo, zhi};
+    const PackedBounds packed = codec_.pack({delta, zlo, zhi});
+    const bool changed = !(bounds_[id] == packed);
+    bounds_[id] = packed;
     return changed;
 }
 
@@ -250,9 +250,9 @@ Tessellator::Bounds Tessellator::centreBounds(std::int32_t record) const {
     if (c.x > grid_w_ - 2 || c.y > grid_h_ - 2)
         return {}; // a virtual cell's centre is off the map
     const WindowBound w = windowBound(c.x, c.y);
-    return {
-        w.cap, roundDown(w.lo * metres_per_fine_ - w.cap),
-        roundUp(w.hi * metres_per_fine_ + w.cap)};
+    return codec_.outward(
+        {w.cap, roundDown(w.lo * metres_per_fine_ - w.cap),
+         roundUp(w.hi * metres_per_fine_ + w.cap)});
 }
 
 Tessellator::WindowBound Tessellator::windowBound(std::int32_t cx, std::int32_t cy) const {
@@ -350,11 +350,10 @@ void Tessellator::storeGrains(
             const std::uint8_t local = tables.diamond_local[static_cast<std::size_t>(g)][slot];
             if (g == 0 && (local == 0 || local == kCentreLocal * kLatticePerCell + kCentreLocal))
                 continue; // the grid vertex and the (eager) centre
-            const Bounds& b = block_bounds_.bounds(i, local);
-            Bounds& stored = grain.bounds[base + slot];
-            const bool changed =
-                stored.delta != b.delta || stored.zlo != b.zlo || stored.zhi != b.zhi;
-            stored = b;
+            const PackedBounds packed = codec_.pack(block_bounds_.bounds(i, local));
+            PackedBounds& stored = grain.bounds[base + slot];
+            const bool changed = !(stored == packed);
+            stored = packed;
             if (changed && collect)
                 recomputed_.push_back(grainId(g, chunk, static_cast<std::uint32_t>(slot)));
         }
@@ -533,22 +532,23 @@ double Tessellator::recordPriority(const ViewMetric& m, const Diamond& d) const 
     // subtree, so this is at least the priority its block would give
     // its descendants reach at most the 3 x 3 cells around its cell (see computeCentreBounds)
     const WindowBound w = windowBound(d.centre.x / kLatticePerCell, d.centre.y / kLatticePerCell);
-    const float cap = w.cap;
-    const double lo = w.lo;
-    const double hi = w.hi;
+    if (w.lo > w.hi)
+        return 0.0;
+    // as stored: the block's own bounds, packed, stay within the window's packed
+    const Bounds window = codec_.outward(
+        {w.cap, roundDown(w.lo * metres_per_fine_ - w.cap),
+         roundUp(w.hi * metres_per_fine_ + w.cap)});
     const std::int32_t reach = subtreeReach(d);
     const std::int32_t x0 = std::max(d.centre.x - reach, 0);
     const std::int32_t y0 = std::max(d.centre.y - reach, 0);
     const std::int32_t x1 = std::min(d.centre.x + reach, real_x_);
     const std::int32_t y1 = std::min(d.centre.y + reach, real_y_);
-    if (x0 >= x1 || y0 >= y1 || lo > hi)
+    if (x0 >= x1 || y0 >= y1)
         return 0.0;
     Box b;
-    b.lo = {
-        x0 * metres_per_lattice_, y0 * metres_per_lattice_, roundDown(lo * metres_per_fine_ - cap)};
-    b.hi = {
-        x1 * metres_per_lattice_, y1 * metres_per_lattice_, roundUp(hi * metres_per_fine_ + cap)};
-    return m.screenError(b, cap);
+    b.lo = {x0 * metres_per_lattice_, y0 * metres_per_lattice_, window.zlo};
+    b.hi = {x1 * metres_per_lattice_, y1 * metres_per_lattice_, window.zhi};
+    return m.screenError(b, window.delta);
 }
 
 double Tessellator::deltaAt(LatticePoint p) const {

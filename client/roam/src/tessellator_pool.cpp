@@ -273,8 +273,8 @@ void Tessellator::prefetchGrains(std::size_t i, std::int32_t block) {
             const Diamond d = diamondAt(p);
             if (d.level != kGrainDeepestLevel[coarser] || !insideMap(p))
                 continue;
-            needed =
-                priority(*prefetch_view_, d, block_bounds_.bounds(i, local)) > prefetch_threshold_;
+            needed = priority(*prefetch_view_, d, codec_.outward(block_bounds_.bounds(i, local))) >
+                     prefetch_threshold_;
         }
         if (!needed)
             return; // nor the finer ones: they hang from this one's splits

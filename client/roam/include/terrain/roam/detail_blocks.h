@@ -73,7 +73,8 @@ class DetailBlocks {
     std::int32_t recordOf(std::int32_t cx, std::int32_t cy) const {
         if (cx < 0 || cy < 0 || cx >= cells_x_ || cy >= cells_y_)
             return -1;
-        return record_of_cell_[cellIndex(cx, cy)];
+        const std::vector<std::int32_t>& page = pages_[pageOf(cx, cy)];
+        return page.empty() ? -1 : page[pageSlot(cx, cy)];
     }
     /// Record slots (some may be free); record ids are below this.
     std::int32_t recordCapacity() const { return static_cast<std::int32_t>(records_.size()); }
@@ -146,6 +147,19 @@ class DetailBlocks {
         return static_cast<std::size_t>(cy) * static_cast<std::size_t>(cells_x_) +
                static_cast<std::size_t>(cx);
     }
+    /// The cell table in pages of kPageCells x kPageCells cells, a page only where some cell
+    /// has a record (a 4097 x 4097 map has 16.8 M cells, a battle's records cluster).
+    static constexpr std::int32_t kPageShift = 6;
+    static constexpr std::int32_t kPageCells = 1 << kPageShift;
+    std::size_t pageOf(std::int32_t cx, std::int32_t cy) const {
+        return static_cast<std::size_t>(cy >> kPageShift) * static_cast<std::size_t>(pages_x_) +
+               static_cast<std::size_t>(cx >> kPageShift);
+    }
+    static std::size_t pageSlot(std::int32_t cx, std::int32_t cy) {
+        return static_cast<std::size_t>(
+            ((cy & (kPageCells - 1)) << kPageShift) | (cx & (kPageCells - 1)));
+    }
+    void setRecordOf(std::int32_t cx, std::int32_t cy, std::int32_t r);
     bool needsRecord(const Terrain& t, std::int32_t cx, std::int32_t cy) const;
     CellRect aroundChange(CellRect cells) const;
     std::int32_t takeRecord(std::int32_t cx, std::int32_t cy);
@@ -154,7 +168,9 @@ class DetailBlocks {
 
     std::int32_t cells_x_ = 0;
     std::int32_t cells_y_ = 0;
-    std::vector<std::int32_t> record_of_cell_;
+    std::int32_t pages_x_ = 0;
+    std::vector<std::vector<std::int32_t>> pages_; ///< empty: no record in the page
+    std::vector<std::int32_t> page_records_;       ///< per page: its records (0 frees it)
     std::vector<Record> records_;
     std::vector<std::int32_t> free_records_;
     std::vector<std::int32_t> record_of_block_;

@@ -52,6 +52,7 @@
 #include <terrain/roam/candidate_heap.h>
 #include <terrain/roam/detail_blocks.h>
 #include <terrain/roam/lattice.h>
+#include <terrain/roam/packed_bounds.h>
 #include <terrain/roam/tile_mesh.h>
 #include <terrain/terrain.h>
 
@@ -227,7 +228,7 @@ class Tessellator {
     using Bounds = DiamondBounds;
     /// The resident chunks of one grain of the blocks, and their diamonds and vertices.
     struct Grain {
-        std::vector<Bounds> bounds;      ///< per diamond slot of every chunk
+        std::vector<PackedBounds> bounds; ///< per diamond slot of every chunk
         std::vector<std::uint8_t> state; ///< per diamond slot
         /// Per vertex slot of every chunk: the height (fine units) less its chunk's base. The
         /// heights of one cell differ by far less than 2^32 fine units (262 km).
@@ -289,14 +290,16 @@ class Tessellator {
     /// the records of its 3 x 3 cells (cached while a whole-map pass runs).
     Bounds bounds(DiamondId id) const {
         if (id < grid_count_)
-            return bounds_[id];
+            return codec_.unpack(bounds_[id]);
         if (id < kPooled) {
             const auto record = static_cast<std::int32_t>(id - grid_count_);
             return centre_cache_.empty() ? centreBounds(record) : centre_cache_[idx(record)];
         }
         const int g = grainOfId(id);
-        return grains_[static_cast<std::size_t>(g)].bounds[pooledSlot(id, g)];
+        return codec_.unpack(grains_[static_cast<std::size_t>(g)].bounds[pooledSlot(id, g)]);
     }
+    /// Packed and unpacked like every stored bound (BoundsCodec::outward), so that the
+    /// centre's children, stored packed, stay within it.
     Bounds centreBounds(std::int32_t record) const;
     /// Marks the pooled id's chunk and block used in this epoch (never evicted in it).
     void markUsed(DiamondId id) {
@@ -448,7 +451,8 @@ class Tessellator {
     DetailBlocks blocks_;
 
     // per diamond: eager ids, and pooled ones (by grain)
-    std::vector<Bounds> bounds_; ///< the grid's (sized once per world)
+    BoundsCodec codec_;
+    std::vector<PackedBounds> bounds_; ///< the grid's (sized once per world)
     std::vector<std::uint8_t> state_;
     std::vector<std::uint8_t> centre_state_; ///< per record (records come and go with ops)
     std::vector<Bounds> centre_cache_;       ///< every centre's bounds, during a whole-map pass
