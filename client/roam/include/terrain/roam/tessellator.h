@@ -229,7 +229,7 @@ class Tessellator {
     /// The resident chunks of one grain of the blocks, and their diamonds and vertices.
     struct Grain {
         std::vector<PackedBounds> bounds; ///< per diamond slot of every chunk
-        std::vector<std::uint8_t> state; ///< per diamond slot
+        std::vector<std::uint8_t> state;  ///< per diamond slot
         /// Per vertex slot of every chunk: the height (fine units) less its chunk's base. The
         /// heights of one cell differ by far less than 2^32 fine units (262 km).
         std::vector<std::uint32_t> heights;
