@@ -161,7 +161,7 @@ void Tessellator::resizeDiamondState() {
 bool Tessellator::storeBounds(DiamondId id, float delta, float zlo, float zhi) {
     TERRAIN_ASSERT(id < grid_count_);
     const PackedBounds packed = codec_.pack({delta, zlo, zhi});
-    const bool changed = !(bounds_[id] == packed);
+    const bool changed = bounds_[id] != packed;
     bounds_[id] = packed;
     return changed;
 }
@@ -249,7 +249,11 @@ Tessellator::Bounds Tessellator::centreBounds(std::int32_t record) const {
     const DetailBlocks::CellXY c = blocks_.recordCell(record);
     if (c.x > grid_w_ - 2 || c.y > grid_h_ - 2)
         return {}; // a virtual cell's centre is off the map
-    const WindowBound w = windowBound(c.x, c.y);
+    return windowBounds(c.x, c.y);
+}
+
+Tessellator::Bounds Tessellator::windowBounds(std::int32_t cx, std::int32_t cy) const {
+    const WindowBound w = windowBound(cx, cy);
     return codec_.outward(
         {w.cap, roundDown(w.lo * metres_per_fine_ - w.cap),
          roundUp(w.hi * metres_per_fine_ + w.cap)});
@@ -352,7 +356,7 @@ void Tessellator::storeGrains(
                 continue; // the grid vertex and the (eager) centre
             const PackedBounds packed = codec_.pack(block_bounds_.bounds(i, local));
             PackedBounds& stored = grain.bounds[base + slot];
-            const bool changed = !(stored == packed);
+            const bool changed = stored != packed;
             stored = packed;
             if (changed && collect)
                 recomputed_.push_back(grainId(g, chunk, static_cast<std::uint32_t>(slot)));
@@ -531,13 +535,10 @@ double Tessellator::recordPriority(const ViewMetric& m, const Diamond& d) const 
     // the records of the cells its subtree reaches bound its delta and every vertex of its
     // subtree, so this is at least the priority its block would give
     // its descendants reach at most the 3 x 3 cells around its cell (see computeCentreBounds)
-    const WindowBound w = windowBound(d.centre.x / kLatticePerCell, d.centre.y / kLatticePerCell);
-    if (w.lo > w.hi)
-        return 0.0;
-    // as stored: the block's own bounds, packed, stay within the window's packed
-    const Bounds window = codec_.outward(
-        {w.cap, roundDown(w.lo * metres_per_fine_ - w.cap),
-         roundUp(w.hi * metres_per_fine_ + w.cap)});
+    // packed as the centre's: the block's own bounds, packed, stay within it
+    const Bounds window = windowBounds(d.centre.x / kLatticePerCell, d.centre.y / kLatticePerCell);
+    if (window.zlo > window.zhi)
+        return 0.0; // no cell of the window has a surface
     const std::int32_t reach = subtreeReach(d);
     const std::int32_t x0 = std::max(d.centre.x - reach, 0);
     const std::int32_t y0 = std::max(d.centre.y - reach, 0);

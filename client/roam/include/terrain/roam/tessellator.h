@@ -360,6 +360,9 @@ class Tessellator {
         double hi = -std::numeric_limits<double>::infinity();
     };
     WindowBound windowBound(std::int32_t cx, std::int32_t cy) const;
+    /// windowBound as a diamond's bounds (cap; range widened by it), packed and unpacked like
+    /// every stored bound; zlo > zhi if no cell of the window has a surface.
+    Bounds windowBounds(std::int32_t cx, std::int32_t cy) const;
     /// Bounds and heights of every resident grain of `blocks` (BlockBounds, in passes over
     /// squares of cells). With `collect`, ids whose bounds changed go to recomputed_.
     void boundBlocks(std::span<const std::int32_t> blocks, bool collect);
