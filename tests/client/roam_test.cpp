@@ -249,6 +249,64 @@ TEST(RoamTileMesh, SlotsStayDenseAndEveryWriteIsCounted) {
     EXPECT_EQ(mesh.dirtyUploadBytes(), 0u);
 }
 
+TEST(RoamTileMesh, KeysFindTheirTrianglesThroughGrowthHolesAndShrinking) {
+    // the key table (any size, linear probing with wrap-around, backward-shift deletion) against
+    // a map, through growth, mass removals, fillHoles and shrink; memory stays near 12 bytes a
+    // triangle
+    roam::TileMesh mesh;
+    std::map<std::uint32_t, std::uint32_t> expected; // key -> first index
+    std::mt19937_64 rng(7);
+    const auto check = [&] {
+        ASSERT_EQ(mesh.triangleCount(), expected.size());
+        for (const auto& [key, first] : expected)
+            ASSERT_TRUE(mesh.contains(key)) << key;
+        const auto idx = mesh.indices();
+        std::map<std::uint32_t, int> seen;
+        for (std::size_t i = 0; i < idx.size(); i += 3)
+            if (idx[i + 1] != 0)
+                ++seen[idx[i]];
+        for (const auto& [key, first] : expected)
+            ASSERT_EQ(seen[first], 1) << key;
+    };
+    for (int round = 0; round < 4; ++round) {
+        for (int i = 0; i < 30000; ++i) {
+            const auto key = static_cast<std::uint32_t>(rng() % 200000);
+            if (expected.count(key) != 0) {
+                EXPECT_TRUE(mesh.remove(key));
+                expected.erase(key);
+            } else {
+                mesh.add(key, {key + 1, key + 2, key + 3});
+                expected[key] = key + 1;
+            }
+        }
+        mesh.fillHoles();
+        check();
+        // most go: the table must still find the rest across the holes left in probe runs
+        for (auto it = expected.begin(); it != expected.end();)
+            if (rng() % 10 != 0) {
+                EXPECT_TRUE(mesh.remove(it->first));
+                EXPECT_FALSE(mesh.contains(it->first));
+                it = expected.erase(it);
+            } else {
+                ++it;
+            }
+        mesh.fillHoles();
+        check();
+        mesh.shrink();
+        check();
+    }
+    for (int i = 0; i < 60000; ++i) {
+        const auto key = static_cast<std::uint32_t>(1000000 + i);
+        mesh.add(key, {key + 1, key + 2, key + 3});
+        expected[key] = key + 1;
+    }
+    mesh.fillHoles();
+    check();
+    // 12 bytes of indices, 4 of key and at most 16 of table entry per triangle, a quarter of
+    // growth on the lists
+    EXPECT_LE(mesh.memoryBytes(), expected.size() * 36 + 4096);
+}
+
 TEST(RoamMesh, ConformsAndMeetsTauOnHillsWithCraters) {
     const Terrain t = cratered(7, 40);
     ASSERT_GT(t.patchCount(), 0u);
@@ -809,6 +867,42 @@ void expectSameAsFreshBuild(
     EXPECT_EQ(leaves(tess), leaves(fresh));
     EXPECT_TRUE(verticesMatchAFreshBuild(tess, t)) << "a vertex height differs";
     expectIndexListsMatchMesh(tess);
+}
+
+TEST(RoamMesh, FreedGrainChunksAreCompactedAwayWithTheSameMesh) {
+    // views low over the craters, one after another: each refines cells to their finest grain,
+    // and the last view's chunks land above the holes the earlier views' released chunks leave,
+    // until trimGrains moves them down and cuts the arrays. Nothing drawn may change.
+    const Terrain t = cratered(7, 40);
+    TessellatorOptions o;
+    o.detail_block_idle_frames = 10;
+    o.tau_pixels = 0.25; // finer: more of grain 2
+    Tessellator tess(t, o);
+    std::mt19937_64 rng(5);
+    std::vector<Camera> views;
+    std::size_t peak = 0;
+    std::int32_t peak_chunks = 0;
+    for (int v = 0; v < 6; ++v) {
+        views.push_back(randomCamera(t, rng));
+        updateUntilSettled(tess, views.back());
+        for (int f = 0; f < 30; ++f) // the earlier view's chunks go idle and are released
+            tess.update(views.back());
+        peak = std::max(peak, tess.memory().grains[2]);
+        peak_chunks = std::max(peak_chunks, tess.grainCounts()[2]);
+    }
+    ASSERT_GT(peak_chunks, 300) << "the views must refine cells to grain 2";
+    EXPECT_GT(tess.movedChunkCount(), 0);
+    EXPECT_LT(tess.memory().grains[2], peak);
+    expectConforming(tess, t.spec());
+    expectIndexListsMatchMesh(tess);
+    EXPECT_TRUE(verticesMatchAFreshBuild(tess, t)) << "a vertex height differs";
+    for (const std::size_t v : {views.size() - 1, std::size_t{0}}) {
+        updateUntilSettled(tess, views[v]);
+        Tessellator fresh(t, o);
+        updateUntilSettled(fresh, views[v]);
+        EXPECT_EQ(leaves(tess), leaves(fresh)) << "view " << v;
+        expectIndexListsMatchMesh(tess);
+    }
 }
 
 TEST(RoamMesh, IncrementalBoundsAfterOpsEqualAFreshBuild) {

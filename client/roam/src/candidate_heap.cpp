@@ -13,7 +13,10 @@ void CandidateHeap::resizeIds(
         auto& p = pooled_position_[r];
         if (pooled[r] > p.capacity()) // grow by an eighth: pools are large
             p.reserve(pooled[r] + p.size() / 8);
+        const bool shrinking = pooled[r] < p.size();
         p.resize(pooled[r], -1);
+        if (shrinking && p.capacity() > p.size() + p.size() / 4)
+            p.shrink_to_fit();
     }
 }
 

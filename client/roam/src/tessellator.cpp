@@ -36,7 +36,7 @@ void Tessellator::adoptSpec() {
     tiles_.clear();
     tiles_.resize(tiles);
     tile_visible_.assign(tiles, 0);
-    tile_seen_.assign(tiles, 0);
+    tile_snug_.assign(tiles, 0);
     vertex_version_.assign(tiles, 0);
     tile_segments_.clear();
     tile_segments_.resize(tiles);
@@ -360,12 +360,13 @@ void Tessellator::finishFrame(const ViewMetric& m, FrameStats& stats) {
             std::min((ty + 1) * kLatticePerTile, real_y_) * metres_per_lattice_, bounds(id).zhi};
         const bool visible = m.intersectsFrustum(box);
         tile_visible_[idx(tile)] = visible ? 1 : 0;
-        // memory follows the view: a tile out of it as long as an idle block gives back the
-        // capacity of its peak list (a few tiles a frame)
-        if (visible)
-            tile_seen_[idx(tile)] = frame_;
+        // memory follows the mesh: a tile whose list has stayed well below its peak for a while
+        // gives the capacity back (a few tiles a frame); one that returns to its peak, as in an
+        // orbit, keeps it
+        if (!mesh.hasSlack())
+            tile_snug_[idx(tile)] = frame_;
         else if (
-            frame_ > tile_seen_[idx(tile)] + kTileIdleFrames &&
+            frame_ > tile_snug_[idx(tile)] + kTileSlackFrames &&
             (frame_ + static_cast<std::uint64_t>(tile)) % kTileShrinkEvery == 0)
             mesh.shrink();
         stats.triangles += mesh.triangleCount();
@@ -427,6 +428,7 @@ FrameStats Tessellator::update(const Camera& camera) {
     last_near_ = camera.near_plane;
     finishFrame(m, stats);
     sweepIdleBlocks();
+    trimGrains();
     stats.refused_by_pool = pool_refusals_ - pool_refusals;
     freshenHeights();
     stats.stale_blocks = staleBlockCount();

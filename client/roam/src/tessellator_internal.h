@@ -31,9 +31,13 @@ inline constexpr double kCapStepMax = 2.0;
 inline constexpr double kCapStepDown = 1.05;
 /// Block slots the idle sweep looks at per frame (Tessellator::sweepIdleBlocks).
 inline constexpr std::size_t kIdleSweep = 512;
-/// A tile out of view this many frames shrinks its index list's capacity, each tile checked
-/// every kTileShrinkEvery frames.
-inline constexpr std::uint64_t kTileIdleFrames = 600;
+/// A grain's chunk arrays are compacted once a quarter of them is free (and they hold at least
+/// kTrimMinChunks), moving up to kTrimMoves chunks a frame.
+inline constexpr std::size_t kTrimMinChunks = 256;
+inline constexpr std::size_t kTrimMoves = 256;
+/// A tile's index list with slack (TileMesh::hasSlack) for this many frames is shrunk, each
+/// tile checked every kTileShrinkEvery frames.
+inline constexpr std::uint64_t kTileSlackFrames = 600;
 inline constexpr std::uint64_t kTileShrinkEvery = 64;
 /// The threshold falls only this many frames after the block pool last refused a split.
 inline constexpr std::uint64_t kPoolQuietFrames = 30;

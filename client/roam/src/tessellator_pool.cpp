@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <array>
+#include <functional>
 
 namespace terrain::roam {
 
@@ -78,6 +79,7 @@ void Tessellator::releaseGrain(std::int32_t block, int g) {
     grain.block[idx(chunk)] = -1;
     if (g > 0) {
         grain.free.push_back(chunk);
+        std::push_heap(grain.free.begin(), grain.free.end(), std::greater<>());
         block_chunks_[idx(block)][static_cast<std::size_t>(g)] = -1;
     }
 }
@@ -139,6 +141,115 @@ void Tessellator::sweepIdleBlocks() {
     }
 }
 
+void Tessellator::moveChunk(int g, std::int32_t from, std::int32_t to) {
+    Grain& grain = grains_[static_cast<std::size_t>(g)];
+    const auto diamonds = static_cast<std::size_t>(kGrainDiamonds[static_cast<std::size_t>(g)]);
+    const auto vertices = static_cast<std::size_t>(kGrainVertices[static_cast<std::size_t>(g)]);
+    const auto copy = [](auto& v, std::size_t n, std::int32_t a, std::int32_t b) {
+        std::copy_n(
+            v.begin() + static_cast<std::ptrdiff_t>(idx(a) * n), n,
+            v.begin() + static_cast<std::ptrdiff_t>(idx(b) * n));
+    };
+    copy(grain.bounds, diamonds, from, to);
+    copy(grain.state, diamonds, from, to);
+    copy(grain.heights, vertices, from, to);
+    copy(grain.base, 1, from, to);
+    copy(grain.used, 1, from, to);
+    copy(grain.segment, 1, from, to);
+    const std::int32_t block = grain.block[idx(from)];
+    grain.block[idx(to)] = block;
+    grain.block[idx(from)] = -1;
+    block_chunks_[idx(block)][static_cast<std::size_t>(g)] = to;
+    // the tile's vertex array keeps the segment: the same vertices, read from the new chunk
+    if (const std::int32_t segment = grain.segment[idx(to)]; segment >= 0)
+        tile_segments_[idx(tileOfCell(blocks_.cellOf(block)))][idx(segment)].chunk = to;
+    grain.segment[idx(from)] = -1;
+    for (std::size_t slot = 0; slot < diamonds; ++slot) {
+        const auto s = static_cast<std::uint32_t>(slot);
+        if (grain.state[idx(to) * diamonds + slot] != 0 && heap_.contains(grainId(g, from, s)))
+            heap_.rename(grainId(g, from, s), grainId(g, to, s));
+        grain.state[idx(from) * diamonds + slot] = 0;
+    }
+}
+
+void Tessellator::trimGrains() {
+    // Incremental: each frame moves up to kTrimMoves of the highest chunks into the lowest free
+    // ones, keeping their segments (the vertices drawn do not change) and renaming their ids in
+    // the heap and the lists kept across frames, then cuts the free end off.
+    for (std::size_t g = 1; g < kGrains; ++g) {
+        Grain& grain = grains_[g];
+        const std::size_t size = grain.block.size();
+        if (!trimming_[g]) {
+            if (size < kTrimMinChunks || grain.free.size() * 4 < size)
+                continue;
+            trimming_[g] = true;
+        }
+        std::size_t end = size;
+        moved_.clear();
+        for (std::size_t moves = 0;; ++moves) {
+            while (end > 0 && grain.block[end - 1] < 0)
+                --end;
+            // the lowest free chunk below the end (those above it are cut off)
+            while (!grain.free.empty() && idx(grain.free.front()) >= end) {
+                std::pop_heap(grain.free.begin(), grain.free.end(), std::greater<>());
+                grain.free.pop_back();
+            }
+            if (grain.free.empty()) {
+                trimming_[g] = false; // dense
+                break;
+            }
+            if (moves == kTrimMoves)
+                break;
+            std::pop_heap(grain.free.begin(), grain.free.end(), std::greater<>());
+            const std::int32_t to = grain.free.back();
+            grain.free.pop_back();
+            const auto from = static_cast<std::int32_t>(end - 1);
+            moveChunk(static_cast<int>(g), from, to);
+            moved_.push_back({from, to});
+            ++chunks_moved_;
+        }
+        if (end == size)
+            continue;
+        std::erase_if(grain.free, [&](std::int32_t c) { return idx(c) >= end; });
+        std::make_heap(grain.free.begin(), grain.free.end(), std::greater<>());
+        // ids of the chunks cut off, in the lists kept across frames: renamed if the chunk
+        // moved; dropped if it was free (a released grain's watched ids lost their state)
+        const auto diamonds = static_cast<std::size_t>(kGrainDiamonds[g]);
+        const auto rename = [&](std::vector<DiamondId>& ids) {
+            std::erase_if(ids, [&](DiamondId& id) {
+                if (id < kPooled || grainOfId(id) != static_cast<int>(g))
+                    return false;
+                const std::size_t slot = pooledSlot(id, static_cast<int>(g));
+                const std::size_t chunk = slot / diamonds;
+                if (chunk < end)
+                    return false;
+                for (const auto& [from, to] : moved_)
+                    if (idx(from) == chunk) {
+                        id = grainId(
+                            static_cast<int>(g), to, static_cast<std::uint32_t>(slot % diamonds));
+                        return false;
+                    }
+                return true;
+            });
+        };
+        rename(watched_);
+        rename(rekey_);
+        const auto fit = [](auto& v, std::size_t n) {
+            v.resize(n);
+            if (v.capacity() > n + n / 4)
+                v.shrink_to_fit();
+        };
+        fit(grain.block, end);
+        fit(grain.used, end);
+        fit(grain.segment, end);
+        fit(grain.base, end);
+        fit(grain.bounds, end * diamonds);
+        fit(grain.state, end * diamonds);
+        fit(grain.heights, end * static_cast<std::size_t>(kGrainVertices[g]));
+        resizeDiamondState();
+    }
+}
+
 std::int32_t Tessellator::materialise(std::int32_t record) {
     // once every slot was found in use, the rest of the frame is refused without a search
     if (blocks_.count() >= options_.max_detail_blocks &&
@@ -169,6 +280,7 @@ void Tessellator::materialiseGrain(std::int32_t block, int g) {
     Grain& grain = grains_[static_cast<std::size_t>(g)];
     std::int32_t chunk = 0;
     if (!grain.free.empty()) {
+        std::pop_heap(grain.free.begin(), grain.free.end(), std::greater<>());
         chunk = grain.free.back();
         grain.free.pop_back();
     } else {

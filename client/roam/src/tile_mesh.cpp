@@ -4,21 +4,37 @@
 
 namespace terrain::roam {
 
-std::size_t TileMesh::hashKey(std::uint32_t key) {
+namespace {
+
+std::uint32_t hashKey(std::uint32_t key) {
     // murmur3's 32-bit finaliser: keys are structured coordinates
     key ^= key >> 16;
     key *= 0x85ebca6bu;
     key ^= key >> 13;
     key *= 0xc2b2ae35u;
     key ^= key >> 16;
-    return static_cast<std::size_t>(key);
+    return key;
+}
+
+// Lists grow by a quarter: a tile's list is most of its memory, and doubling left it half empty
+// on average.
+template <class T> void growByAQuarter(std::vector<T>& v, std::size_t needed) {
+    if (needed > v.capacity())
+        v.reserve(std::max(needed, v.capacity() + v.capacity() / 4 + 64));
+}
+
+} // namespace
+
+std::size_t TileMesh::home(std::uint32_t key, std::size_t size) {
+    // scaled rather than masked, so that the table can have any size
+    return static_cast<std::size_t>((std::uint64_t{hashKey(key)} * size) >> 32);
 }
 
 void TileMesh::clear() {
     indices_.clear();
     keys_of_slots_.clear();
     free_slots_.clear();
-    std::fill(table_keys_.begin(), table_keys_.end(), kNoKey);
+    std::fill(table_.begin(), table_.end(), kEmptyEntry);
     table_used_ = 0;
     live_ = 0;
     for (const std::uint32_t page : dirty_pages_)
@@ -28,69 +44,71 @@ void TileMesh::clear() {
     ++counters_.rebuilds;
 }
 
-std::uint32_t TileMesh::find(std::uint32_t key) const {
-    if (table_keys_.empty())
-        return kEmpty;
-    const std::size_t mask = table_keys_.size() - 1;
-    for (std::size_t i = hashKey(key) & mask;; i = (i + 1) & mask) {
-        if (table_keys_[i] == key)
-            return table_slots_[i];
-        if (table_keys_[i] == kNoKey)
-            return kEmpty;
+std::size_t TileMesh::locate(std::uint32_t key) const {
+    const std::size_t size = table_.size();
+    if (size == 0)
+        return size;
+    for (std::size_t i = home(key, size);; i = i + 1 == size ? 0 : i + 1) {
+        if (keyOf(table_[i]) == key)
+            return i;
+        if (table_[i] == kEmptyEntry)
+            return size;
     }
 }
 
-void TileMesh::growTable() {
-    resizeTable(std::max<std::size_t>(64, table_keys_.size() * 2));
+std::uint32_t TileMesh::find(std::uint32_t key) const {
+    const std::size_t i = locate(key);
+    return i == table_.size() ? kEmpty : static_cast<std::uint32_t>(table_[i]);
 }
 
 void TileMesh::resizeTable(std::size_t size) {
-    std::vector<std::uint32_t> keys(size, kNoKey);
-    std::vector<std::uint32_t> slots(size, 0);
-    const std::size_t mask = size - 1;
-    for (std::size_t j = 0; j < table_keys_.size(); ++j) {
-        if (table_keys_[j] == kNoKey)
+    std::vector<std::uint64_t> table(size, kEmptyEntry);
+    for (const std::uint64_t entry : table_) {
+        if (entry == kEmptyEntry)
             continue;
-        std::size_t i = hashKey(table_keys_[j]) & mask;
-        while (keys[i] != kNoKey)
-            i = (i + 1) & mask;
-        keys[i] = table_keys_[j];
-        slots[i] = table_slots_[j];
+        std::size_t i = home(keyOf(entry), size);
+        while (table[i] != kEmptyEntry)
+            i = i + 1 == size ? 0 : i + 1;
+        table[i] = entry;
     }
-    table_keys_.swap(keys);
-    table_slots_.swap(slots);
+    table_.swap(table);
 }
 
 void TileMesh::insertKey(std::uint32_t key, std::uint32_t slot) {
-    if (std::size_t{table_used_ + 1} * 10 > table_keys_.size() * 7)
-        growTable();
-    const std::size_t mask = table_keys_.size() - 1;
-    std::size_t i = hashKey(key) & mask;
-    while (table_keys_[i] != kNoKey)
-        i = (i + 1) & mask;
-    table_keys_[i] = key;
-    table_slots_[i] = slot;
+    // past three quarters full, resized to half full
+    if (std::size_t{table_used_ + 1} * 4 > table_.size() * 3)
+        resizeTable(std::max<std::size_t>(64, std::size_t{table_used_ + 1} * 2));
+    const std::size_t size = table_.size();
+    std::size_t i = home(key, size);
+    while (table_[i] != kEmptyEntry)
+        i = i + 1 == size ? 0 : i + 1;
+    table_[i] = entryOf(key, slot);
     ++table_used_;
 }
 
-void TileMesh::eraseKey(std::uint32_t key) {
-    const std::size_t mask = table_keys_.size() - 1;
-    std::size_t i = hashKey(key) & mask;
-    while (table_keys_[i] != key)
-        i = (i + 1) & mask;
-    // backward-shift: pull later entries of the probe run into the hole
-    std::size_t hole = i;
-    for (std::size_t j = (i + 1) & mask; table_keys_[j] != kNoKey; j = (j + 1) & mask) {
-        const std::size_t home = hashKey(table_keys_[j]) & mask;
-        const bool movable = (j > hole) ? (home <= hole || home > j) : (home <= hole && home > j);
-        if (movable) {
-            table_keys_[hole] = table_keys_[j];
-            table_slots_[hole] = table_slots_[j];
+void TileMesh::eraseAt(std::size_t hole) {
+    const std::size_t size = table_.size();
+    // backward-shift: pull later entries of the probe run into the hole, each one that would not
+    // then sit before its home (cyclic distances)
+    const auto distance = [size](std::size_t from, std::size_t to) {
+        return to >= from ? to - from : to + size - from;
+    };
+    for (std::size_t j = hole + 1 == size ? 0 : hole + 1; table_[j] != kEmptyEntry;
+         j = j + 1 == size ? 0 : j + 1) {
+        if (distance(home(keyOf(table_[j]), size), j) >= distance(hole, j)) {
+            table_[hole] = table_[j];
             hole = j;
         }
     }
-    table_keys_[hole] = kNoKey;
+    table_[hole] = kEmptyEntry;
     --table_used_;
+}
+
+void TileMesh::appendSlot() {
+    growByAQuarter(keys_of_slots_, keys_of_slots_.size() + 1);
+    growByAQuarter(indices_, indices_.size() + 3);
+    keys_of_slots_.push_back(kNoKey);
+    indices_.resize(indices_.size() + 3);
 }
 
 void TileMesh::write(std::uint32_t slot, const Indices& indices) {
@@ -115,8 +133,7 @@ void TileMesh::add(std::uint32_t key, const Indices& indices) {
         free_slots_.pop_back();
     } else {
         slot = slotCount();
-        keys_of_slots_.push_back(kNoKey);
-        indices_.resize(indices_.size() + 3);
+        appendSlot();
     }
     keys_of_slots_[slot] = key;
     insertKey(key, slot);
@@ -125,10 +142,11 @@ void TileMesh::add(std::uint32_t key, const Indices& indices) {
 }
 
 bool TileMesh::remove(std::uint32_t key) {
-    const std::uint32_t slot = find(key);
-    if (slot == kEmpty)
+    const std::size_t at = locate(key);
+    if (at == table_.size())
         return false;
-    eraseKey(key);
+    const auto slot = static_cast<std::uint32_t>(table_[at]);
+    eraseAt(at);
     keys_of_slots_[slot] = kNoKey;
     free_slots_.push_back(slot);
     write(slot, {0, 0, 0});
@@ -153,31 +171,33 @@ void TileMesh::fillHoles() {
         const Indices moved = {indices_[3 * last], indices_[3 * last + 1], indices_[3 * last + 2]};
         keys_of_slots_[hole] = key;
         write(hole, moved);
-        const std::size_t mask = table_keys_.size() - 1;
-        std::size_t i = hashKey(key) & mask;
-        while (table_keys_[i] != key)
-            i = (i + 1) & mask;
-        table_slots_[i] = hole;
+        table_[locate(key)] = entryOf(key, hole);
         keys_of_slots_.pop_back();
         indices_.resize(indices_.size() - 3);
     }
 }
 
+namespace {
+constexpr std::size_t kKeepSlots = 256; // slack no list gives back
+} // namespace
+
+bool TileMesh::listHasSlack() const {
+    const std::size_t slots = keys_of_slots_.size();
+    return keys_of_slots_.capacity() > slots + slots / 2 + kKeepSlots;
+}
+
+bool TileMesh::tableHasSlack() const {
+    return table_.size() > 4 * kKeepSlots && std::size_t{table_used_} * 4 < table_.size();
+}
+
 void TileMesh::shrink() {
-    // what the peak list held, where a quarter of it is in use at most (a list that merely
-    // breathes is not shrunk and regrown)
-    constexpr std::size_t kKeep = 1024; // slots
-    if (keys_of_slots_.capacity() > 4 * keys_of_slots_.size() + kKeep) {
+    if (listHasSlack()) {
         keys_of_slots_.shrink_to_fit();
         indices_.shrink_to_fit();
         std::vector<std::uint32_t>(free_slots_).swap(free_slots_);
     }
-    if (table_keys_.size() > 4 * kKeep && std::size_t{table_used_} * 8 < table_keys_.size()) {
-        std::size_t size = 64;
-        while (std::size_t{table_used_} * 10 > size * 3) // about 30 % full after
-            size *= 2;
-        resizeTable(size);
-    }
+    if (tableHasSlack())
+        resizeTable(std::max<std::size_t>(64, std::size_t{table_used_} * 2)); // half full after
 }
 
 std::uint64_t TileMesh::dirtyUploadBytes() const {

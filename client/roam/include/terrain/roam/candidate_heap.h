@@ -34,11 +34,19 @@ class CandidateHeap {
     }
 
     /// Ids below `eager`, and in each pooled range r below kPooledIds + kRangeBase[r] +
-    /// pooled[r], may be held; new ones start outside the heap.
+    /// pooled[r], may be held; new ones start outside the heap. A pooled range may shrink: the
+    /// ids cut off must not be held.
     void resizeIds(std::size_t eager, const std::array<std::size_t, kPooledRanges>& pooled);
     bool contains(std::uint32_t id) const { return position(id) >= 0; }
     /// Inserts `id`, or moves it to `key` if it is held already.
     void push(std::uint32_t id, double key);
+    /// Gives held `from`'s entry to `to` (not held), in place.
+    void rename(std::uint32_t from, std::uint32_t to) {
+        const std::int32_t at = position(from);
+        position(from) = -1;
+        position(to) = at;
+        heap_[static_cast<std::size_t>(at)].id = to;
+    }
     /// Takes `id` out; it must be held.
     void remove(std::uint32_t id);
     /// Takes every entry out (ids stay valid).

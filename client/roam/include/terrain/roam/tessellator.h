@@ -204,6 +204,8 @@ class Tessellator {
     /// Bytes of per-diamond state, records, blocks and index lists.
     std::size_t memoryBytes() const { return memory().total(); }
     TessellatorMemory memory() const;
+    /// Grain chunks moved down to compact their arrays since construction (trimGrains).
+    std::int64_t movedChunkCount() const { return chunks_moved_; }
     /// Diamonds split since construction that needed a block no cell had (must stay 0).
     std::int64_t missingBlockRefusals() const { return missing_block_refusals_; }
 
@@ -237,7 +239,9 @@ class Tessellator {
         std::vector<std::int32_t> block;   ///< per chunk: its block, or -1 (free)
         std::vector<std::uint64_t> used;   ///< per chunk: the epoch it was last used in
         std::vector<std::int32_t> segment; ///< per chunk: its segment in its tile, or -1
-        std::vector<std::int32_t> free;    ///< free chunks (grains 1 and 2; grain 0's are blocks)
+        /// Free chunks (grains 1 and 2; grain 0's are blocks), a min-heap: the lowest is reused
+        /// first, so that the free ones gather at the end, where trimGrains() cuts them off.
+        std::vector<std::int32_t> free;
     };
     /// A run of a tile's vertex array that holds one grain of one block, or a hole.
     struct VertexSegment {
@@ -340,6 +344,11 @@ class Tessellator {
     /// Releases blocks (or their finer grains) idle for options_.detail_block_idle_frames, a
     /// few slots per frame.
     void sweepIdleBlocks();
+    /// Gives back the memory of free grain 1 and 2 chunks once they are a quarter of their
+    /// arrays, compacting over a few frames: a battle's peak is not kept for the session.
+    void trimGrains();
+    /// Moves a live chunk of grain g (1 or 2) into a free one, renaming its ids in the heap.
+    void moveChunk(int g, std::int32_t from, std::int32_t to);
     void evict(std::int32_t block);
     void releaseGrain(std::int32_t block, int g);
     /// The triangle cap or the pool refused a split this frame.
@@ -469,6 +478,8 @@ class Tessellator {
     // the block pool
     BlockBounds block_bounds_;
     std::vector<std::int32_t> pass_;
+    std::array<bool, kGrains> trimming_{}; ///< per grain: compacting (trimGrains)
+    std::vector<std::pair<std::int32_t, std::int32_t>> moved_; ///< chunks moved, from -> to
     std::vector<std::int32_t> stale_;       ///< blocks whose bounds wait, oldest first
     std::vector<std::uint8_t> block_stale_; ///< per block slot: kStale* flags (in stale_)
     std::vector<DetailBlocks::CellXY> pass_cells_;
@@ -494,13 +505,14 @@ class Tessellator {
     std::int64_t materialised_ = 0;
     std::int64_t grains_materialised_ = 0; ///< finer grains (1 and 2) made
     std::int64_t evicted_ = 0;
+    std::int64_t chunks_moved_ = 0;
     /// materialised_ + grains_materialised_ when the frame began (its work budget counts them)
     std::int64_t made_at_frame_start_ = 0;
 
     // per tile
     std::vector<TileMesh> tiles_;
     std::vector<std::uint8_t> tile_visible_;
-    std::vector<std::uint64_t> tile_seen_; ///< per tile: the frame it was last in view
+    std::vector<std::uint64_t> tile_snug_; ///< per tile: the frame its mesh last had no slack
     std::vector<std::uint32_t> vertex_version_;
     /// Segments of each tile's vertex array past the base grid, by offset; a segment keeps its
     /// place while its grain lives, so index lists never move.

@@ -11,7 +11,9 @@
 // last took the tile are listed, so an index buffer is uploaded only where it changed
 // (glBufferSubData per run of dirty pages).
 // Allocation happens only when the list or its key table outgrows its capacity; a steady state
-// allocates nothing. Pure: no GL.
+// allocates nothing. Memory is a few bytes above the 12 the indices need per triangle: lists grow
+// by a quarter, not double, and the key table (one 8-byte entry per triangle, any size, not a
+// power of two) is kept between half and three quarters full. Pure: no GL.
 
 #include <array>
 #include <cstdint>
@@ -43,8 +45,11 @@ class TileMesh {
     bool contains(std::uint32_t key) const { return find(key) != kEmpty; }
     /// Moves the last triangles into the free slots and shortens the list (end of a frame).
     void fillHoles();
-    /// Gives back the memory of a list that has shrunk to a quarter of its peak (or less): for
-    /// tiles the view has left, as it allocates.
+    /// Whether shrink() would give memory back: the list uses two thirds of its capacity or
+    /// less, or the key table is under a quarter full (beyond a few hundred slots).
+    bool hasSlack() const { return listHasSlack() || tableHasSlack(); }
+    /// Gives that memory back. Allocates: the tessellator calls it for a list that has had
+    /// slack for a while (one that merely breathes is not shrunk and regrown).
     void shrink();
 
     /// Three indices per slot; a free slot (only between fillHoles() calls) is (0, 0, 0).
@@ -69,8 +74,7 @@ class TileMesh {
                dirty_pages_.capacity() * sizeof(std::uint32_t) + page_dirty_.capacity() +
                keys_of_slots_.capacity() * sizeof(std::uint32_t) +
                free_slots_.capacity() * sizeof(std::uint32_t) +
-               table_keys_.capacity() * sizeof(std::uint32_t) +
-               table_slots_.capacity() * sizeof(std::uint32_t);
+               table_.capacity() * sizeof(std::uint64_t);
     }
 
     TileCounters& counters() { return counters_; }
@@ -80,20 +84,33 @@ class TileMesh {
     static constexpr std::uint32_t kEmpty = 0xffffffffu;
     static constexpr std::uint32_t kNoKey = 0xffffffffu;
 
+    // a table entry: the key in the high half, its slot in the low half
+    static constexpr std::uint64_t kEmptyEntry = std::uint64_t{kNoKey} << 32;
+    static std::uint32_t keyOf(std::uint64_t entry) {
+        return static_cast<std::uint32_t>(entry >> 32);
+    }
+    static std::uint64_t entryOf(std::uint32_t key, std::uint32_t slot) {
+        return std::uint64_t{key} << 32 | slot;
+    }
+    /// The key's home position in a table of `size` entries (hash scaled, not masked).
+    static std::size_t home(std::uint32_t key, std::size_t size);
+    /// Position of the key's entry in table_; table_.size() if absent.
+    std::size_t locate(std::uint32_t key) const;
     std::uint32_t find(std::uint32_t key) const;
+    bool listHasSlack() const;
+    bool tableHasSlack() const;
     void insertKey(std::uint32_t key, std::uint32_t slot);
-    void eraseKey(std::uint32_t key);
-    void growTable();
+    /// Empties table_[at] (backward shift).
+    void eraseAt(std::size_t at);
     void resizeTable(std::size_t size);
+    void appendSlot();
     void write(std::uint32_t slot, const Indices& indices);
-    static std::size_t hashKey(std::uint32_t key);
 
     std::vector<std::uint32_t> indices_;
     std::vector<std::uint32_t> keys_of_slots_; ///< kNoKey for a free slot
     std::vector<std::uint32_t> free_slots_;
-    // open addressing, linear probing, backward-shift deletion; at most 70 % full
-    std::vector<std::uint32_t> table_keys_;
-    std::vector<std::uint32_t> table_slots_;
+    // open addressing, linear probing, backward-shift deletion; at most 3/4 full
+    std::vector<std::uint64_t> table_;
     std::uint32_t table_used_ = 0;
     std::uint32_t live_ = 0;
     std::vector<std::uint32_t> dirty_pages_;
