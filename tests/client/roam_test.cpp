@@ -125,13 +125,16 @@ TEST(RoamCandidateHeap, PopsInKeyOrderThroughPushesReKeysAndRemovals) {
             heap.remove(id);
             reference.erase(id);
         } else {
-            const double key = any_key(rng);
+            const double key = any_key(rng) + (step % 7 == 0 ? 1e5 : 0.0); // far along too
             heap.push(id, key); // a held id is re-keyed
-            reference[id] = key;
+            const double stored = roam::CandidateHeap::storedKey(key);
+            ASSERT_LE(stored, key); // never due later than asked
+            ASSERT_LE(key - stored, 2.5e-7 * std::max(1.0, key)) << key; // one float step
+            reference[id] = stored;
         }
         ASSERT_EQ(heap.size(), reference.size());
         if (!reference.empty()) {
-            double lowest = 1e9;
+            double lowest = 1e12;
             for (const auto& [held, key] : reference)
                 lowest = std::min(lowest, key);
             ASSERT_EQ(heap.top().key, lowest);

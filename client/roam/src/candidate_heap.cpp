@@ -53,7 +53,8 @@ void CandidateHeap::siftDown(std::size_t i) {
     position(e.id) = static_cast<std::int32_t>(i);
 }
 
-void CandidateHeap::push(std::uint32_t id, double key) {
+void CandidateHeap::push(std::uint32_t id, double exact_key) {
+    const float key = storedKey(exact_key);
     if (position(id) >= 0) {
         const auto i = static_cast<std::size_t>(position(id));
         heap_[i].key = key;

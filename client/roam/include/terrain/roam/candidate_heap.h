@@ -9,18 +9,29 @@
 // Pure: no GL, no clocks. Single-threaded.
 
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace terrain::roam {
 
 class CandidateHeap {
   public:
+    /// 8 bytes: the key is a float rounded down (storedKey), so that a candidate is never due
+    /// later than asked, only up to one float step earlier (about 8 mm after 100 km of travel).
     struct Entry {
-        double key = 0.0;
+        float key = 0.0f;
         std::uint32_t id = 0;
     };
+    /// The key an entry pushed with `key` holds: the largest float not above it.
+    static float storedKey(double key) {
+        auto f = static_cast<float>(key);
+        if (static_cast<double>(f) > key)
+            f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+        return f;
+    }
 
     static constexpr std::uint32_t kPooledIds = 1u << 31;
     static constexpr int kPooledRanges = 3;
@@ -38,7 +49,7 @@ class CandidateHeap {
     /// ids cut off must not be held.
     void resizeIds(std::size_t eager, const std::array<std::size_t, kPooledRanges>& pooled);
     bool contains(std::uint32_t id) const { return position(id) >= 0; }
-    /// Inserts `id`, or moves it to `key` if it is held already.
+    /// Inserts `id`, or moves it to `key` (as storedKey) if it is held already.
     void push(std::uint32_t id, double key);
     /// Gives held `from`'s entry to `to` (not held), in place.
     void rename(std::uint32_t from, std::uint32_t to) {
