@@ -126,7 +126,7 @@ TEST(RoamCandidateHeap, PopsInKeyOrderThroughPushesReKeysAndRemovals) {
             reference.erase(id);
         } else {
             const double key = any_key(rng) + (step % 7 == 0 ? 1e5 : 0.0); // far along too
-            heap.push(id, key); // a held id is re-keyed
+            heap.push(id, key);                                            // a held id is re-keyed
             const double stored = roam::CandidateHeap::storedKey(key);
             ASSERT_LE(stored, key); // never due later than asked
             ASSERT_LE(key - stored, 2.5e-7 * std::max(1.0, key)) << key; // one float step
