@@ -206,7 +206,7 @@ int serve(const Options& o) {
         "terrain-server: stopped at seq %llu, hash %016llx; %llu ops accepted, %llu refused, "
         "%llu commits, %llu sessions, %llu resyncs, %llu slow disconnects\n",
         static_cast<unsigned long long>(srv.broadcastSeq()),
-        static_cast<unsigned long long>(authority.terrain().worldHash()),
+        static_cast<unsigned long long>(srv.broadcastHash()),
         static_cast<unsigned long long>(st.ops_accepted),
         static_cast<unsigned long long>(st.ops_refused),
         static_cast<unsigned long long>(st.commits),

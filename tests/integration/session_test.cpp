@@ -6,6 +6,7 @@
 #include <terrain/surface_query.h>
 
 #include <algorithm>
+#include <map>
 #include <random>
 
 namespace terrain::testing {
@@ -505,6 +506,55 @@ TEST(Session, HealthRequestAnswersWithoutAToken) {
     peer.readUntilDisconnect(0.5);
     ASSERT_EQ(peer.received.size(), 1u);
     EXPECT_EQ(peer.received[0], pb::Envelope::kHealthReply);
+}
+
+TEST(Session, HealthPairsTheBroadcastSeqWithItsOwnHash) {
+    // Deform and health requests in one write: the server applies each deform at once but
+    // broadcasts it only when the read pass ends, so every health reply is answered while ops are
+    // accepted and not yet committed. Its (seq, hash) must still be one state: the hash after op
+    // seq, as broadcast, not the authority's newer terrain.
+    TestServer srv(smallMap(129), fastConfig());
+    const std::uint64_t start_hash = srv.worldHash();
+    RawPeer peer(srv.port());
+    peer.sendHello(token(1, Role::kDeformer));
+    std::vector<std::uint8_t> bytes;
+    for (std::uint32_t i = 0; i < 20; ++i) {
+        pb::Envelope deform;
+        deform.mutable_deform()->set_request_id(i + 1);
+        OpRequest r;
+        r.kind = OpKind::kCrater;
+        r.x = 20.0 + 4.0 * i;
+        r.y = 40.0;
+        r.radius = 3.0;
+        r.height = 1.0;
+        r.strength = 0.5;
+        wire::requestToWire(r, *deform.mutable_deform()->mutable_metres());
+        wire::appendFrame(deform, bytes);
+        pb::Envelope health;
+        health.mutable_health_request();
+        wire::appendFrame(health, bytes);
+    }
+    peer.sendBytes(bytes);
+    peer.readUntilDisconnect(1.0);
+    std::map<std::uint64_t, std::uint64_t> hash_at{{0, start_hash}};
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> health;
+    std::uint64_t seq = 0;
+    for (const pb::Envelope& e : peer.envelopes) {
+        if (e.has_op_applied()) { // seq is stated every 16th op, else the previous one's + 1
+            seq = e.op_applied().seq() != 0 ? e.op_applied().seq() : seq + 1;
+            hash_at[seq] = e.op_applied().world_hash();
+        }
+        if (e.has_health_reply())
+            health.emplace_back(e.health_reply().seq(), e.health_reply().world_hash());
+        if (e.has_deform_reply() && e.deform_reply().has_refused())
+            ADD_FAILURE() << e.deform_reply().refused().DebugString();
+    }
+    ASSERT_EQ(hash_at.size(), 21u) << "every deform must be accepted and broadcast";
+    ASSERT_EQ(health.size(), 20u);
+    for (const auto& [at, hash] : health) {
+        ASSERT_TRUE(hash_at.count(at) != 0) << at;
+        EXPECT_EQ(hash, hash_at[at]) << "health at seq " << at;
+    }
 }
 
 } // namespace

@@ -184,8 +184,10 @@ class RawPeer {
                         *message = env->disconnect().message();
                     return env->disconnect().reason();
                 }
-                if (env)
+                if (env) {
                     received.push_back(env->body_case());
+                    envelopes.push_back(*env);
+                }
             }
         }
         return wire::pb::REASON_UNSPECIFIED;
@@ -201,7 +203,8 @@ class RawPeer {
         socket_.read_some(asio::buffer(&b, 1), ec);
         return ec == asio::error::eof || ec == asio::error::connection_reset;
     }
-    std::vector<int> received;
+    std::vector<int> received;                 ///< body cases, in order
+    std::vector<wire::pb::Envelope> envelopes; ///< the same frames, decoded
 
   private:
     asio::io_context io_;

@@ -13,8 +13,9 @@ namespace pb = wire::pb;
 Server::Server(
     asio::io_context& io, ServerConfig config, Authority& authority, journal::Journal* journal)
     : io_(io), config_(std::move(config)), authority_(authority), journal_(journal), acceptor_(io),
-      broadcast_seq_(authority.seq()), last_journal_snapshot_seq_(authority.seq()),
-      op_frames_(authority.log().capacity()), shutdown_timer_(io), accept_retry_timer_(io) {}
+      broadcast_seq_(authority.seq()), broadcast_hash_(authority.terrain().worldHash()),
+      last_journal_snapshot_seq_(authority.seq()), op_frames_(authority.log().capacity()),
+      shutdown_timer_(io), accept_retry_timer_(io) {}
 
 Server::~Server() = default;
 
@@ -147,6 +148,7 @@ void Server::commitPending() {
         wire::Frame frame = wire::encodeFrame(envelope);
         op_frames_[a.seq % op_frames_.size()] = frame;
         broadcast_seq_ = a.seq;
+        broadcast_hash_ = a.world_hash;
         for (std::size_t i = 0; i < sessions_.size(); ++i)
             sessions_[i]->sendOp(a.seq, frame);
         if (auto requester = p.requester.lock()) {

@@ -387,8 +387,10 @@ void Session::onHealthRequest() {
     pb::Envelope reply;
     pb::HealthReply* r = reply.mutable_health_reply();
     r->set_healthy(!server_.failed_ && !server_.shutting_down_);
+    // one state: ops accepted but not yet committed are applied to the authority's terrain,
+    // and must not show in the hash until their seq does
     r->set_seq(server_.broadcast_seq_);
-    r->set_world_hash(server_.authority_.terrain().worldHash());
+    r->set_world_hash(server_.broadcast_hash_);
     r->set_sessions(static_cast<std::uint32_t>(server_.sessions_.size()));
     r->set_detail(
         server_.failed_          ? server_.failure_

@@ -94,6 +94,9 @@ class Server {
     const ServerStats& stats() const { return stats_; }
     std::size_t sessionCount() const { return sessions_.size(); }
     std::uint64_t broadcastSeq() const { return broadcast_seq_; }
+    /// The world hash after op broadcastSeq(): the state clients see. The authority's own
+    /// terrain may be ahead of it by ops not yet committed.
+    std::uint64_t broadcastHash() const { return broadcast_hash_; }
     /// Bytes queued in all sessions (shared frames counted per session).
     std::size_t queuedBytes() const;
     /// Called on the io thread whenever a batch of ops has been broadcast (benchmarks, logs).
@@ -138,6 +141,7 @@ class Server {
     std::vector<PendingOp> pending_;
     bool commit_scheduled_ = false;
     std::uint64_t broadcast_seq_ = 0;
+    std::uint64_t broadcast_hash_ = 0; ///< after op broadcast_seq_
     std::uint64_t last_journal_snapshot_seq_ = 0;
     std::vector<wire::Frame> op_frames_; // ring parallel to the authority's op log
     std::unique_ptr<wire::SnapshotFrames> snapshot_;
