@@ -96,6 +96,7 @@ int serve(const Options& o) {
     std::optional<journal::Journal> journal;
     std::optional<Terrain> terrain;
     std::uint64_t seq = 0;
+    std::optional<journal::RecoveredHistory> history;
     const auto t0 = std::chrono::steady_clock::now();
     if (!o.no_journal) {
         Result<journal::Durability> durability = journal::parseDurability(o.durability);
@@ -103,7 +104,8 @@ int serve(const Options& o) {
             std::printf("terrain-server: %s\n", durability.error().message.c_str());
             return 2;
         }
-        Result<journal::Journal> opened = journal::Journal::open(o.data_dir, {*durability, 2});
+        Result<journal::Journal> opened =
+            journal::Journal::open(o.data_dir, {*durability, 2, o.op_log});
         if (!opened) {
             std::printf("terrain-server: %s\n", opened.error().message.c_str());
             return 1;
@@ -122,7 +124,7 @@ int serve(const Options& o) {
             terrain.emplace(std::move(*genesis));
             std::printf("journal: new world in %s\n", o.data_dir.c_str());
         } else {
-            Result<journal::RecoveredState> recovered = journal->recover();
+            Result<journal::RecoveredState> recovered = journal->recover(o.op_log);
             if (!recovered) {
                 std::printf(
                     "terrain-server: recovery refused: %s\n", recovered.error().message.c_str());
@@ -138,6 +140,7 @@ int serve(const Options& o) {
                 recovered->replayed_records, recovered->torn_bytes_dropped);
             seq = recovered->seq;
             terrain.emplace(std::move(recovered->terrain));
+            history = std::move(recovered->history);
         }
     } else {
         Result<Terrain> genesis = genesisTerrain(o);
@@ -152,6 +155,21 @@ int serve(const Options& o) {
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     const WorldSpec spec = terrain->spec();
     server::Authority authority(std::move(*terrain), seq, o.op_log);
+    if (history) {
+        // the retained log as it was: clients a few ops behind resume across the restart
+        std::vector<server::LoggedOp> ops;
+        ops.reserve(history->records.size());
+        for (const journal::JournalRecord& r : history->records)
+            ops.push_back({r.seq, r.op, r.world_hash});
+        if (Status s = authority.restoreLog(history->base_seq, history->base_hash, ops); !s) {
+            std::printf(
+                "terrain-server: retained log not restored: %s\n", s.error().message.c_str());
+            return 1;
+        }
+        std::printf(
+            "journal: %zu ops retained for resumes (from seq %llu)\n", ops.size(),
+            static_cast<unsigned long long>(authority.log().resumableFrom()));
+    }
 
     server::ServerConfig config;
     config.bind_address = o.bind;

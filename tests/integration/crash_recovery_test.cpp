@@ -83,7 +83,9 @@ TEST(CrashRecovery, KillNineUnderLoadLosesNoAcknowledgedOp) {
     std::mt19937_64 rng(21);
     std::uniform_real_distribution<double> pos(3.0, 125.0);
     std::size_t sent = 0;
-    // keep 16 requests in flight; kill once 300 are acknowledged, mid-stream
+    // keep 16 requests in flight; the viewer leaves at 150 acknowledged (it will be behind at
+    // the restart, and must resume from the restored log); kill once 300 are acknowledged
+    bool viewer_left = false;
     auto acked = [&] {
         std::uint64_t n = 0;
         for (const auto& a : deformer->answers)
@@ -97,6 +99,10 @@ TEST(CrashRecovery, KillNineUnderLoadLosesNoAcknowledgedOp) {
                 deformer->connection->requestDeform(
                     OpRequest{OpKind::kCrater, pos(rng), pos(rng), 2.5, 0.8, 0.3});
                 ++sent;
+            }
+            if (acked() >= 150 && !viewer_left) {
+                viewer->connection->stop();
+                viewer_left = true;
             }
             return acked() >= 300;
         },
@@ -140,6 +146,7 @@ TEST(CrashRecovery, KillNineUnderLoadLosesNoAcknowledgedOp) {
         }
     }
 
+    const std::uint64_t left_at = viewer->replica.seq();
     // restart on the same directory: the server resumes at the journal's last seq
     ServerProcess again = spawnServer(dir, "b");
     ASSERT_NE(again.port, 0) << "terrain-server did not restart; see " << dir;
@@ -153,6 +160,13 @@ TEST(CrashRecovery, KillNineUnderLoadLosesNoAcknowledgedOp) {
     ASSERT_TRUE(runUntil(io, [&] { return fresh.replica.ready(); }));
     EXPECT_EQ(fresh.replica.seq(), verified->last_seq);
     EXPECT_EQ(fresh.replica.worldHash(), verified->final_hash);
+    // the viewer left well behind: the restarted server rebuilt its retained log from the
+    // journal, so it gets the ops it missed, not a snapshot
+    ASSERT_LT(left_at + 100, verified->last_seq);
+    ASSERT_TRUE(runUntil(io, [&] { return kept.seq() == verified->last_seq; }));
+    EXPECT_EQ(reconnected->stats().resumes, 1u);
+    EXPECT_EQ(reconnected->stats().snapshots, 0u);
+    EXPECT_EQ(kept.stats().snapshots, 1u); // the first join's only
     // new ops after the restart reach both the resumed and the fresh client
     fresh.connection->requestDeform(OpRequest{OpKind::kCrater, 60, 60, 3, 1, 0.3});
     ASSERT_TRUE(runUntil(io, [&] {
@@ -161,13 +175,33 @@ TEST(CrashRecovery, KillNineUnderLoadLosesNoAcknowledgedOp) {
     }));
     EXPECT_EQ(kept.stats().hash_mismatches, 0u);
     reconnected->stop();
+    // five more ops the viewer misses, then a clean stop: it writes a snapshot at the last seq
+    // and the next start replays nothing, so the log comes from the segments before it
+    for (int i = 0; i < 5; ++i)
+        fresh.connection->requestDeform(OpRequest{OpKind::kCrater, 30.0 + 15 * i, 90, 3, 1, 0.3});
+    ASSERT_TRUE(runUntil(io, [&] { return fresh.replica.seq() == verified->last_seq + 6; }));
     ::kill(again.pid, SIGTERM);
     waitpid(again.pid, &status, 0);
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "SIGTERM must drain cleanly";
-    // after a clean stop the journal still verifies, including the post-restart op
+    // after a clean stop the journal still verifies, including the post-restart ops
     auto final_check = journal::verifyJournal(dir / "data");
     ASSERT_TRUE(final_check.ok()) << final_check.error().message;
-    EXPECT_EQ(final_check->last_seq, verified->last_seq + 1);
+    EXPECT_EQ(final_check->last_seq, verified->last_seq + 6);
+
+    ServerProcess third = spawnServer(dir, "c");
+    ASSERT_NE(third.port, 0) << "terrain-server did not restart; see " << dir;
+    cc.port = third.port;
+    auto resumed = std::make_shared<client::Connection>(io, cc, kept);
+    resumed->start();
+    ASSERT_TRUE(runUntil(io, [&] { return kept.seq() == final_check->last_seq; }));
+    EXPECT_EQ(kept.worldHash(), final_check->final_hash);
+    EXPECT_EQ(resumed->stats().resumes, 1u);
+    EXPECT_EQ(resumed->stats().snapshots, 0u);
+    EXPECT_EQ(kept.stats().hash_mismatches, 0u);
+    resumed->stop();
+    ::kill(third.pid, SIGTERM);
+    waitpid(third.pid, &status, 0);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
     fs::remove_all(dir);
 }
 

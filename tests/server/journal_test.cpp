@@ -308,6 +308,97 @@ TEST_F(JournalTest, snapshotsRotateSegmentsPruneAndRecoveryReplaysOnlyTheTail) {
     EXPECT_TRUE(contains(fallback->notes[0], "snapshot-00000000000000000180.trsn skipped"));
 }
 
+TEST_F(JournalTest, recoveredHistoryReachesBackPastTheSnapshotAsFarAsTheSegmentsGo) {
+    // for the server's retained log: the last records before the recovered state, with the
+    // state they start from, read from every segment still on disk
+    {
+        Journal j = openJournal({Durability::kFsync, 2});
+        ASSERT_TRUE(j.initialize(genesis_).ok());
+        for (std::uint64_t at : {60u, 120u, 180u}) {
+            journalOps(j, at);
+            ASSERT_TRUE(j.writeSnapshot(live_, at).ok());
+        }
+        journalOps(j, 200); // on disk: snapshots 120 and 180, records 121 ... 200
+    }
+    const auto expectHistory = [&](const RecoveredHistory& h, std::uint64_t base) {
+        EXPECT_EQ(h.base_seq, base);
+        EXPECT_EQ(h.base_hash, hashes_[base]);
+        ASSERT_EQ(h.records.size(), 200 - base);
+        for (std::size_t i = 0; i < h.records.size(); ++i) {
+            const JournalRecord& r = h.records[i];
+            ASSERT_EQ(r.seq, base + 1 + i);
+            EXPECT_EQ(r.op, ops_[r.seq - 1]);
+            EXPECT_EQ(r.world_hash, hashes_[r.seq]);
+        }
+    };
+    // a crash: 20 records replayed after snapshot 180, 30 more read back from before it
+    {
+        Journal j = openJournal();
+        auto r = j.recover(50);
+        ASSERT_TRUE(r.ok()) << r.error().message;
+        EXPECT_EQ(r->replayed_records, 20u);
+        expectHistory(r->history, 150);
+    }
+    {
+        Journal j = openJournal();
+        auto r = j.recover(0);
+        ASSERT_TRUE(r.ok()) << r.error().message;
+        expectHistory(r->history, 200);
+    }
+    // the older segment damaged: recovery does not need it, the history stops at the snapshot
+    const auto older = filesStartingWith(dir_, "journal-").front();
+    auto bytes = readBytes(older);
+    bytes[recordOffset(10) + 20] ^= 0x01;
+    writeBytes(older, bytes);
+    {
+        Journal j = openJournal();
+        auto r = j.recover(50);
+        ASSERT_TRUE(r.ok()) << r.error().message;
+        expectHistory(r->history, 180);
+        ASSERT_FALSE(r->notes.empty());
+        EXPECT_TRUE(contains(r->notes.back(), "history stops before journal-00000000000000000121"))
+            << r->notes.back();
+    }
+    // a clean stop writes a snapshot at the last seq and replays nothing: the history comes
+    // from the segments before it (121 ... 180 is pruned with snapshot 120)
+    {
+        Journal j = openJournal({Durability::kFsync, 2});
+        auto r = j.recover();
+        ASSERT_TRUE(r.ok()) << r.error().message;
+        ASSERT_TRUE(j.writeSnapshot(r->terrain, 200).ok());
+    }
+    {
+        Journal j = openJournal();
+        auto r = j.recover(50);
+        ASSERT_TRUE(r.ok()) << r.error().message;
+        EXPECT_EQ(r->replayed_records, 0u);
+        expectHistory(r->history, 181); // record 181 gives its hash to the base state
+    }
+}
+
+TEST_F(JournalTest, historyRecordsKeepTheSegmentsAFullHistoryNeedsAfterACleanStop) {
+    {
+        Journal j = openJournal({Durability::kFsync, 2, 50});
+        ASSERT_TRUE(j.initialize(genesis_).ok());
+        for (std::uint64_t at : {60u, 120u, 180u, 200u}) {
+            journalOps(j, at);
+            ASSERT_TRUE(j.writeSnapshot(live_, at).ok()); // 200: the clean stop's
+        }
+    }
+    // snapshot 180 alone would let 121 ... 180 go; 50 records before 200 need it
+    EXPECT_EQ(
+        filesStartingWith(dir_, "journal-").front().filename(), "journal-00000000000000000121.tjl");
+    Journal j = openJournal();
+    auto r = j.recover(50);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(r->replayed_records, 0u);
+    EXPECT_EQ(r->history.base_seq, 150u);
+    EXPECT_EQ(r->history.base_hash, hashes_[150]);
+    ASSERT_EQ(r->history.records.size(), 50u);
+    EXPECT_EQ(r->history.records.front().seq, 151u);
+    EXPECT_EQ(r->history.records.back().world_hash, hashes_[200]);
+}
+
 TEST_F(JournalTest, keepOneSnapshotPrunesEverySegmentBeforeIt) {
     Journal j = openJournal({Durability::kFsync, 1});
     ASSERT_TRUE(j.initialize(genesis_).ok());

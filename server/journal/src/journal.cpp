@@ -114,7 +114,80 @@ Status Journal::initialize(const Terrain& genesis, std::uint64_t seq) {
     return Ok{};
 }
 
-Result<RecoveredState> Journal::recover() {
+namespace {
+
+// The last `retain` records ending at `last_seq`, contiguous, read back from the segments
+// (newest first), and the state they start from. See Journal::recover().
+RecoveredHistory collectHistory(
+    const std::vector<detail::DirFile>& segments,
+    std::uint64_t last_seq,
+    std::uint64_t last_hash,
+    std::uint64_t snapshot_seq,
+    std::uint64_t snapshot_hash,
+    std::size_t retain,
+    std::vector<std::string>& notes) {
+    RecoveredHistory history{last_seq, last_hash, {}};
+    if (retain == 0)
+        return history;
+    // newest first: one more record than retained, whose hash is the base state's
+    std::vector<JournalRecord> newest_first;
+    std::uint64_t expected = last_seq;
+    for (auto it = segments.rbegin(); it != segments.rend() && newest_first.size() <= retain;
+         ++it) {
+        if (it->seq > expected)
+            continue; // holds only records past the recovered state (none: the tail was cut)
+        auto bytes = detail::readWholeFile(it->path);
+        auto scan = bytes ? detail::scanSegment(*bytes, *it, it == segments.rbegin())
+                          : Result<detail::SegmentScan>(bytes.error());
+        if (!scan) {
+            notes.push_back(
+                "history stops before " + it->path.filename().string() + ": " +
+                scan.error().message);
+            break;
+        }
+        bool chained = true;
+        for (auto r = scan->records.rbegin();
+             r != scan->records.rend() && newest_first.size() <= retain; ++r) {
+            if (r->seq > expected)
+                continue;
+            if (r->seq != expected) {
+                chained = false;
+                break;
+            }
+            if (r->seq == snapshot_seq && r->world_hash != snapshot_hash) {
+                notes.push_back(
+                    "history stops at seq " + std::to_string(r->seq) +
+                    ": the record's hash differs from the snapshot's");
+                chained = false;
+                break;
+            }
+            newest_first.push_back(*r);
+            if (expected == 0)
+                break;
+            --expected;
+        }
+        if (!chained || expected + 1 != it->seq)
+            break; // a gap before this segment's first record (pruned or damaged)
+    }
+    if (newest_first.empty())
+        return history;
+    // the state before the oldest record: the snapshot's, or an older record's hash
+    const std::uint64_t oldest = newest_first.back().seq;
+    if (newest_first.size() <= retain && oldest == snapshot_seq + 1) {
+        history.base_seq = snapshot_seq;
+        history.base_hash = snapshot_hash;
+    } else {
+        history.base_seq = oldest;
+        history.base_hash = newest_first.back().world_hash;
+        newest_first.pop_back();
+    }
+    history.records.assign(newest_first.rbegin(), newest_first.rend());
+    return history;
+}
+
+} // namespace
+
+Result<RecoveredState> Journal::recover(std::size_t retain_records) {
     TERRAIN_ASSERT(!ready_);
     if (failure_)
         return *failure_;
@@ -152,6 +225,7 @@ Result<RecoveredState> Journal::recover() {
 
     const std::uint64_t snapshot_seq = base->sequence;
     Terrain terrain = std::move(base->terrain);
+    const std::uint64_t snapshot_hash = terrain.worldHash();
     auto replay = detail::replaySegments(listing->segments, snapshot_seq, terrain, nullptr);
     if (!replay)
         return replay.error();
@@ -184,9 +258,13 @@ Result<RecoveredState> Journal::recover() {
     last_seq_ = seq;
     appended_seq_ = seq;
     ready_ = true;
+    RecoveredHistory history = collectHistory(
+        listing->segments, seq, terrain.worldHash(), snapshot_seq, snapshot_hash, retain_records,
+        notes);
     return RecoveredState{std::move(terrain), seq,
                           snapshot_seq,       replay->replayed,
-                          replay->torn_bytes, std::move(notes)};
+                          replay->torn_bytes, std::move(notes),
+                          std::move(history)};
 }
 
 void Journal::append(const JournalRecord& record) {
@@ -263,7 +341,11 @@ Status Journal::prune() {
     for (std::size_t i = 0; i < drop; ++i)
         remove(snapshots[i].path);
     // note: firstSegmentAfter() never returns past the newest segment, so the current one stays
-    const std::size_t first_needed = detail::firstSegmentAfter(listing->segments, oldest_kept);
+    const std::uint64_t newest = snapshots.back().seq;
+    const std::uint64_t history_from =
+        newest > options_.history_records ? newest - options_.history_records : 0;
+    const std::size_t first_needed =
+        detail::firstSegmentAfter(listing->segments, std::min(oldest_kept, history_from));
     for (std::size_t i = 0; i < first_needed; ++i)
         remove(listing->segments[i].path);
     if (first_error)

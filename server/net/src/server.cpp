@@ -15,7 +15,16 @@ Server::Server(
     : io_(io), config_(std::move(config)), authority_(authority), journal_(journal), acceptor_(io),
       broadcast_seq_(authority.seq()), broadcast_hash_(authority.terrain().worldHash()),
       last_journal_snapshot_seq_(authority.seq()), op_frames_(authority.log().capacity()),
-      shutdown_timer_(io), accept_retry_timer_(io) {}
+      shutdown_timer_(io), accept_retry_timer_(io) {
+    // a log restored after a restart: its ops' broadcast frames, so clients resume from them
+    const OpLog& log = authority.log();
+    for (std::uint64_t seq = log.resumableFrom() + 1; seq <= log.lastSeq(); ++seq) {
+        const LoggedOp& logged = log.at(seq);
+        pb::Envelope envelope;
+        wire::opToWire(logged.op, seq, logged.world_hash, *envelope.mutable_op_applied());
+        op_frames_[seq % op_frames_.size()] = wire::encodeFrame(envelope);
+    }
+}
 
 Server::~Server() = default;
 

@@ -11,6 +11,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <span>
 
 namespace terrain::server {
 
@@ -30,6 +31,14 @@ class Authority {
     Result<Accepted> apply(const OpRequest& request);
     /// Validates (validateOp) and applies a canonical op (replay, trusted tools, wire ops).
     Result<Accepted> apply(const DeformOp& op);
+
+    /// Refills the retained log after a restart: `ops` are seqs base_seq + 1 ... seq(), in
+    /// order, and base_hash the world hash at base_seq (the journal's recovered history). Only
+    /// the last log capacity ops are kept. Nothing changes on an error.
+    /// Errors: kOutOfRange when the ops do not end at seq() or are not consecutive;
+    /// kHashMismatch when the last one's hash (or base_hash, with no ops) is not the terrain's.
+    Status
+    restoreLog(std::uint64_t base_seq, std::uint64_t base_hash, std::span<const LoggedOp> ops);
 
     const Terrain& terrain() const { return terrain_; }
     std::uint64_t seq() const { return seq_; }

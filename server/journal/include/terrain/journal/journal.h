@@ -41,6 +41,18 @@ struct JournalOptions {
     /// Snapshots kept by writeSnapshot() (values below 1 count as 1). With 2 or more, recovery
     /// can fall back to an older snapshot when the newest one is damaged.
     std::size_t keep_snapshots = 2;
+    /// Segments holding any of the last this many records before the newest snapshot are kept
+    /// too, so that recover(retain_records) finds them after a clean stop (the server passes
+    /// its retained log's capacity).
+    std::size_t history_records = 0;
+};
+
+/// The last durable ops before a recovered state, for a server's retained log: a client a few
+/// ops behind resumes after a restart instead of downloading a snapshot.
+struct RecoveredHistory {
+    std::uint64_t base_seq = 0;         ///< the state the records start from
+    std::uint64_t base_hash = 0;        ///< its world hash
+    std::vector<JournalRecord> records; ///< seq base_seq + 1 ... RecoveredState::seq, in order
 };
 
 /// What recover() rebuilt.
@@ -51,6 +63,7 @@ struct RecoveredState {
     std::size_t replayed_records = 0;   ///< records applied after the snapshot
     std::size_t torn_bytes_dropped = 0; ///< torn tail removed from the newest segment
     std::vector<std::string> notes;     ///< things worth a log line (skipped snapshot, torn tail)
+    RecoveredHistory history;           ///< at most recover()'s retain_records
 };
 
 /// Counters since open().
@@ -94,7 +107,13 @@ class Journal {
     ///   repeat (inside or between segments), a bad segment header;
     /// - kHashMismatch: a record's world hash differs from the replayed one ("seq N");
     /// - apply()'s code: a record whose op the terrain refuses.
-    Result<RecoveredState> recover();
+    /// With retain_records > 0, history holds up to that many of the last records, read back
+    /// from the segments still on disk, those before the snapshot included (a clean stop writes
+    /// a snapshot, and replays nothing). Records after the snapshot were hash-checked by the
+    /// replay; older ones by their checksums, and the one at the snapshot's seq against the
+    /// snapshot. An older segment that cannot be read or does not chain only shortens the history
+    /// (a note says so); it never fails recovery.
+    Result<RecoveredState> recover(std::size_t retain_records = 0);
 
     /// Buffers one record in memory; makes no syscall. Nothing is durable before commit().
     /// Precondition: initialize() or recover() succeeded, and record.seq is one more than the
@@ -115,7 +134,8 @@ class Journal {
 
     /// Writes snapshot-<seq> atomically (temp file, fdatasync, rename, fsync of the directory),
     /// then starts segment journal-<seq + 1>, then deletes all but the newest keep_snapshots
-    /// snapshots and every segment holding only records older than the oldest kept snapshot.
+    /// snapshots and every segment holding only records older than the oldest kept snapshot
+    /// and than the last history_records records before the newest one.
     /// The current segment is fdatasynced first, under either policy, so a closed segment is
     /// always whole. `terrain` must be the state after record `seq`.
     /// Precondition: pending() == 0 and seq == lastSeq() (else kOutOfRange, nothing written).
