@@ -161,14 +161,15 @@ int serve(const Options& o) {
         ops.reserve(history->records.size());
         for (const journal::JournalRecord& r : history->records)
             ops.push_back({r.seq, r.op, r.world_hash});
-        if (Status s = authority.restoreLog(history->base_seq, history->base_hash, ops); !s) {
+        // without it the world is still whole: clients behind then join by snapshot
+        if (Status s = authority.restoreLog(history->base_seq, history->base_hash, ops); !s)
             std::printf(
-                "terrain-server: retained log not restored: %s\n", s.error().message.c_str());
-            return 1;
-        }
-        std::printf(
-            "journal: %zu ops retained for resumes (from seq %llu)\n", ops.size(),
-            static_cast<unsigned long long>(authority.log().resumableFrom()));
+                "journal: retained log not restored (clients behind will get snapshots): %s\n",
+                s.error().message.c_str());
+        else
+            std::printf(
+                "journal: %zu ops retained for resumes (from seq %llu)\n", ops.size(),
+                static_cast<unsigned long long>(authority.log().resumableFrom()));
     }
 
     server::ServerConfig config;
