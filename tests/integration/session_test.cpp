@@ -6,6 +6,7 @@
 #include <terrain/surface_query.h>
 
 #include <algorithm>
+#include <atomic>
 #include <map>
 #include <random>
 
@@ -495,6 +496,52 @@ TEST(Session, QueriesAboveTheRateAreRefusedAndTheSessionStays) {
     EXPECT_GE(refused, 30);
     EXPECT_LE(refused, 40);
     EXPECT_EQ(c.connection->stats().disconnects, 0u);
+}
+
+TEST(Session, AJoinWaitingForItsSnapshotDelaysNoOtherSession) {
+    // the join snapshot is built off the io thread: held there, the joiner waits while every
+    // other session's ops go on; released, the joiner gets the snapshot and the ops after it
+    server::ServerConfig config = fastConfig();
+    config.outbound_budget_bytes = 4 << 10;   // a tail of 32 ops at most: 40 make the cache stale
+    config.snapshot_cache_max_lag = 1u << 30; // no refresh ahead of a join
+    std::atomic<bool> hold{false};
+    std::atomic<int> builds{0};
+    config.before_snapshot_build = [&] {
+        ++builds;
+        while (hold.load())
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    };
+    TestServer srv(smallMap(129), config);
+    asio::io_context io;
+    TestClient deformer(io, srv.port(), token(1, Role::kDeformer));
+    TestClient viewer(io, srv.port(), token(2, Role::kViewer));
+    ASSERT_TRUE(runUntil(io, [&] { return deformer.replica.ready() && viewer.replica.ready(); }));
+    std::mt19937_64 rng(4);
+    const WorldSpec spec = deformer.replica.terrain().spec();
+    const auto deform = [&](std::size_t n) {
+        const std::size_t before = deformer.answers.size();
+        for (std::size_t i = 0; i < n; ++i)
+            deformer.connection->requestDeform(randomCrater(rng, spec));
+        return runUntil(io, [&] { return deformer.answers.size() == before + n; });
+    };
+    for (int window = 0; window < 4; ++window)
+        ASSERT_TRUE(deform(10));
+    ASSERT_EQ(builds.load(), 1);
+    const std::uint64_t before_hold = srv.seq();
+    hold = true;
+    TestClient late(io, srv.port(), token(3, Role::kViewer));
+    ASSERT_TRUE(runUntil(io, [&] { return builds.load() == 2; }));
+    ASSERT_TRUE(deform(10)); // answered while the build is held
+    ASSERT_TRUE(runUntil(io, [&] { return viewer.replica.seq() == srv.seq(); }));
+    EXPECT_GT(viewer.replica.seq(), before_hold);
+    EXPECT_FALSE(late.replica.ready()) << "the snapshot was held";
+    hold = false;
+    ASSERT_TRUE(runUntil(io, [&] {
+        return late.replica.ready() && late.replica.seq() == srv.seq() &&
+               late.replica.worldHash() == srv.worldHash();
+    }));
+    EXPECT_EQ(late.connection->stats().disconnects, 0u);
+    EXPECT_EQ(srv.stats().snapshots_built, 2u);
 }
 
 TEST(Session, HealthRequestAnswersWithoutAToken) {

@@ -1,4 +1,5 @@
 #include "session.h"
+#include "snapshot_worker.h"
 
 #include <terrain/assert.h>
 #include <terrain/server/server.h>
@@ -15,6 +16,7 @@ Server::Server(
     : io_(io), config_(std::move(config)), authority_(authority), journal_(journal), acceptor_(io),
       broadcast_seq_(authority.seq()), broadcast_hash_(authority.terrain().worldHash()),
       last_journal_snapshot_seq_(authority.seq()), op_frames_(authority.log().capacity()),
+      snapshot_worker_(std::make_unique<SnapshotWorker>(io, config_.before_snapshot_build)),
       shutdown_timer_(io), accept_retry_timer_(io) {
     // a log restored after a restart: its ops' broadcast frames, so clients resume from them
     const OpLog& log = authority.log();
@@ -173,6 +175,11 @@ void Server::commitPending() {
             fail("journal snapshot failed: " + s.error().message);
         last_journal_snapshot_seq_ = broadcast_seq_;
     }
+    // keep the join snapshot warm once joins have asked for one: rebuilt off the io thread
+    // before it ages out, so a join finds a usable one instead of waiting for a build
+    if (snapshot_ && !shutting_down_ &&
+        broadcast_seq_ - snapshot_->seq >= config_.snapshot_cache_max_lag / 2)
+        buildSnapshot();
     if (on_broadcast)
         on_broadcast(broadcast_seq_);
 }
@@ -185,23 +192,54 @@ const wire::Frame& Server::opFrame(std::uint64_t seq) const {
     return op_frames_[seq % op_frames_.size()];
 }
 
-const wire::SnapshotFrames& Server::joinSnapshot() {
-    // note: called after the journal commit (joins, resyncs inside the broadcast loop), so every
-    // op the authority holds is durable, even those whose broadcast is still in progress
-    TERRAIN_ASSERT(pending_.empty());
+const wire::SnapshotFrames* Server::usableSnapshot() const {
     const std::uint64_t current = authority_.seq();
-    // a cached snapshot serves while its successors are retained and it is not too far behind
-    // ... and while the ops after it fit well inside a session's budget (a join must not start
-    // as a slow consumer)
     const bool usable = snapshot_ && snapshot_->seq >= authority_.log().resumableFrom() &&
                         current - snapshot_->seq <= config_.snapshot_cache_max_lag &&
                         tailFits(current - snapshot_->seq);
-    if (!usable) {
-        snapshot_ = std::make_unique<wire::SnapshotFrames>(
-            wire::buildSnapshotFrames(authority_.terrain(), current, config_.snapshot_chunk_bytes));
-        ++stats_.snapshots_built;
+    return usable ? snapshot_.get() : nullptr;
+}
+
+void Server::awaitSnapshot(const std::shared_ptr<Session>& session) {
+    snapshot_waiters_.push_back(session);
+    buildSnapshot();
+}
+
+void Server::buildSnapshot() {
+    if (snapshot_worker_->busy() || failed_)
+        return;
+    // a snapshot holds durable ops only: commit what is pending first (inside a broadcast loop
+    // nothing is: the batch was committed before it)
+    commitPending();
+    if (failed_)
+        return;
+    TERRAIN_ASSERT(pending_.empty());
+    // the copy is the io thread's whole share of the work
+    snapshot_worker_->build(
+        authority_.terrain(), authority_.seq(), config_.snapshot_chunk_bytes,
+        [this](std::shared_ptr<const wire::SnapshotFrames> frames) {
+            onSnapshotBuilt(std::move(frames));
+        });
+}
+
+void Server::onSnapshotBuilt(std::shared_ptr<const wire::SnapshotFrames> frames) {
+    ++stats_.snapshots_built;
+    if (!snapshot_ || frames->seq >= snapshot_->seq)
+        snapshot_ = std::move(frames);
+    std::vector<std::weak_ptr<Session>> waiters;
+    waiters.swap(snapshot_waiters_);
+    const wire::SnapshotFrames* usable = usableSnapshot();
+    for (const auto& waiter : waiters) {
+        const std::shared_ptr<Session> session = waiter.lock();
+        if (!session || !session->awaitingSnapshot())
+            continue;
+        if (usable)
+            session->deliverSnapshot(*usable);
+        else
+            snapshot_waiters_.push_back(waiter); // too far behind already: the next build
     }
-    return *snapshot_;
+    if (!snapshot_waiters_.empty())
+        buildSnapshot();
 }
 
 void Server::shutdown(std::function<void()> done) {

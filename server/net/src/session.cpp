@@ -400,7 +400,18 @@ void Session::onHealthRequest() {
 }
 
 void Session::sendSnapshotAndTail() {
-    const wire::SnapshotFrames& snapshot = server_.joinSnapshot();
+    if (const wire::SnapshotFrames* snapshot = server_.usableSnapshot()) {
+        deliverSnapshot(*snapshot);
+        return;
+    }
+    if (awaiting_snapshot_)
+        return; // already asked
+    awaiting_snapshot_ = true;
+    server_.awaitSnapshot(shared_from_this());
+}
+
+void Session::deliverSnapshot(const wire::SnapshotFrames& snapshot) {
+    awaiting_snapshot_ = false;
     for (const wire::Frame& frame : snapshot.frames)
         enqueue(frame, FrameClass::kSnapshot);
     sent_through_ = snapshot.seq;
@@ -416,7 +427,7 @@ void Session::sendTail(std::uint64_t after_seq) {
 }
 
 void Session::sendOp(std::uint64_t seq, const wire::Frame& frame) {
-    if (state_ != State::kLive || seq <= sent_through_)
+    if (state_ != State::kLive || awaiting_snapshot_ || seq <= sent_through_)
         return;
     if (queue_.budgetBytes() + frame->size() > server_.config_.outbound_budget_bytes) {
         overBudget();

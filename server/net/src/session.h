@@ -9,6 +9,7 @@
 #include <terrain/server/rate_limiter.h>
 #include <terrain/wire/codec.h>
 #include <terrain/wire/framing.h>
+#include <terrain/wire/snapshot_stream.h>
 
 #include <asio.hpp>
 #include <cstdint>
@@ -31,6 +32,12 @@ class Session : public std::enable_shared_from_this<Session> {
     /// after the linger time).
     void close(wire::pb::Reason reason, const std::string& message);
 
+    /// Waiting for a join or resync snapshot (ops are not queued meanwhile: the retained ones
+    /// follow the snapshot).
+    bool awaitingSnapshot() const { return awaiting_snapshot_ && state_ == State::kLive; }
+    /// Queues `snapshot` and the retained ops after it.
+    void deliverSnapshot(const wire::SnapshotFrames& snapshot);
+
     bool live() const { return state_ == State::kLive; }
     std::uint64_t id() const { return id_; }
     std::size_t queuedBytes() const { return queue_.totalBytes(); }
@@ -49,7 +56,8 @@ class Session : public std::enable_shared_from_this<Session> {
     void onRepairRequest(const wire::pb::RepairRequest& request);
     void onSnapshotRequest();
     void onHealthRequest();
-    /// Queues the join snapshot and the retained ops after it.
+    /// Queues the join snapshot and the retained ops after it, now if the cached one is usable,
+    /// else once the server has built one.
     void sendSnapshotAndTail();
     void sendTail(std::uint64_t after_seq);
     void overBudget();
@@ -68,6 +76,7 @@ class Session : public std::enable_shared_from_this<Session> {
     std::size_t in_flight_ = 0; // frames of the queue's front being written
     bool writing_ = false;
     bool resynced_since_drain_ = false;
+    bool awaiting_snapshot_ = false;
     std::uint64_t sent_through_ = 0; // last op seq queued (or covered by a queued snapshot)
     TokenClaims claims_{};
     RateLimiter deform_limiter_;

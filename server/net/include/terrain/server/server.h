@@ -22,6 +22,7 @@
 namespace terrain::server {
 
 class Session;
+class SnapshotWorker;
 
 struct ServerConfig {
     std::string bind_address = "127.0.0.1";
@@ -53,6 +54,8 @@ struct ServerConfig {
     /// The journal writes a snapshot every this many ops (0: only on shutdown).
     std::uint64_t journal_snapshot_every = 20000;
     std::vector<std::uint8_t> token_secret;
+    /// Tests: runs on the snapshot thread before each join snapshot is built (to hold one).
+    std::function<void()> before_snapshot_build;
 };
 
 struct ServerStats {
@@ -122,8 +125,15 @@ class Server {
     /// Journal commit of every pending op, then broadcast + acknowledgement, in seq order.
     void commitPending();
     void fail(const std::string& why);
-    /// A snapshot at a seq whose successors are all retained (rebuilt when too old).
-    const wire::SnapshotFrames& joinSnapshot();
+    /// The cached join snapshot if a session may start from it now: its successors are all
+    /// retained, it is not too far behind, and the ops after it fit well inside a session's
+    /// budget (a join must not start as a slow consumer); else nullptr.
+    const wire::SnapshotFrames* usableSnapshot() const;
+    /// `session` gets a snapshot as soon as a usable one is built (off the io thread).
+    void awaitSnapshot(const std::shared_ptr<Session>& session);
+    /// Starts building a snapshot of the current state on the worker, unless one is building.
+    void buildSnapshot();
+    void onSnapshotBuilt(std::shared_ptr<const wire::SnapshotFrames> frames);
     /// Upper bound of one OpApplied frame (prefix + envelope), for budget arithmetic.
     static constexpr std::uint64_t kMaxOpFrameBytes = 64;
     /// True when `ops` broadcast frames take at most half a session's budget.
@@ -144,7 +154,9 @@ class Server {
     std::uint64_t broadcast_hash_ = 0; ///< after op broadcast_seq_
     std::uint64_t last_journal_snapshot_seq_ = 0;
     std::vector<wire::Frame> op_frames_; // ring parallel to the authority's op log
-    std::unique_ptr<wire::SnapshotFrames> snapshot_;
+    std::shared_ptr<const wire::SnapshotFrames> snapshot_; ///< the join snapshot cache
+    std::unique_ptr<SnapshotWorker> snapshot_worker_;
+    std::vector<std::weak_ptr<Session>> snapshot_waiters_;
     void scheduleAccept();
 
     bool shutting_down_ = false;
