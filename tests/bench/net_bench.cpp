@@ -829,6 +829,26 @@ bool allSynced(ServerThread& srv, ClientPool& pool, double timeout_seconds) {
         timeout_seconds);
 }
 
+// A fresh viewer joins by snapshot on its own io_context and thread (not one of the pool's
+// clients, whose records a run owns); returns the time to a loaded replica (ms), or -1.
+double joinFresh(std::uint16_t port, std::uint64_t player) {
+    asio::io_context io;
+    client::Replica replica;
+    client::ConnectionConfig config;
+    config.port = port;
+    config.token = token(player, server::Role::kViewer);
+    config.reconnect = false;
+    auto connection = std::make_shared<client::Connection>(io, config, replica);
+    const auto start = Clock::now();
+    connection->start();
+    while (!replica.ready() && msSince(start) < 30000.0)
+        io.run_for(std::chrono::milliseconds(2));
+    const double ms = replica.ready() ? msSince(start) : -1.0;
+    connection->stop();
+    io.run_for(std::chrono::milliseconds(1));
+    return ms;
+}
+
 server::ServerConfig benchConfig() {
     server::ServerConfig c;
     c.deform_rate_per_second = 1e6;
@@ -859,6 +879,8 @@ int main(int argc, char** argv) {
     int join_craters = 5000;
     int warm_joins = 5;
     int srtm_ops = 300;
+    double load_rate = 40.0;
+    double load_seconds = 6.0;
     bool quick = false;
     std::string dem_dir = TERRAIN_DEM_DIR;
     app.add_option("--out", out_path, "JSON output path");
@@ -884,6 +906,13 @@ int main(int argc, char** argv) {
     app.add_option("--srtm-ops", srtm_ops, "crater ops in the SRTM wire-bytes run")
         ->check(CLI::Range(1, 1000000));
     app.add_option("--dem-dir", dem_dir, "folder holding srtm_n44w072/");
+    app.add_option(
+           "--join-load-rate", load_rate,
+           "ops per second of the SRTM paced runs with and without a join every second")
+        ->check(CLI::PositiveNumber);
+    auto* load_seconds_opt =
+        app.add_option("--join-load-seconds", load_seconds, "length of each of those runs")
+            ->check(CLI::PositiveNumber);
     app.add_flag(
         "--quick", quick,
         "smoke test: 16 clients, 100 ops (300 light), 2 s paced runs, 100 SRTM ops");
@@ -898,6 +927,8 @@ int main(int argc, char** argv) {
         if (paced_opt->count() == 0)
             paced_seconds = 2.0;
         srtm_ops = std::min(srtm_ops, 100);
+        if (load_seconds_opt->count() == 0)
+            load_seconds = 3.0;
     }
 
     const auto bench_start = Clock::now();
@@ -923,6 +954,8 @@ int main(int argc, char** argv) {
         cfg.set("join_craters", join_craters);
         cfg.set("warm_joins", warm_joins);
         cfg.set("srtm_ops", srtm_ops);
+        cfg.set("join_load_rate", load_rate);
+        cfg.set("join_load_seconds", load_seconds);
         cfg.set("threads", "server: 1 io thread; clients: client_threads io threads; same process");
         root.set("config", std::move(cfg));
     }
@@ -1235,6 +1268,9 @@ int main(int argc, char** argv) {
         std::size_t history_refused = 0;
         double history_ms = 0.0;
         server::ServerConfig config = benchConfig();
+        // the join cache at most a second of the loaded run's ops old: each join a second there
+        // needs a snapshot of its own (or one rebuilt ahead of it)
+        config.snapshot_cache_max_lag = static_cast<std::uint64_t>(load_rate);
         ServerThread srv(std::move(dem->terrain), config, [&](server::Authority& a) {
             const auto start = Clock::now();
             for (const OpRequest& r : history)
@@ -1376,6 +1412,60 @@ int main(int argc, char** argv) {
             wire_bytes.set("srtm_66m", std::move(b));
             srtm_fanout = fanoutJson(s, pool.size(), static_cast<std::size_t>(window), 0.0);
             has_srtm_fanout = true;
+        }
+        // joins under load: a paced run alone, then the same with a fresh viewer joining by
+        // snapshot every second; what a join costs every other session (request -> applied on
+        // all of the pool's clients)
+        if (joins_ok) {
+            const auto loadOps = [&](std::uint64_t seed) {
+                CraterSeries c = series;
+                c.seed = seed;
+                c.count = static_cast<int>(load_rate * load_seconds + 0.5);
+                return randomCraters(spec, c);
+            };
+            const FanoutResult quiet = runDeform(
+                srv, pool, loadOps(9), static_cast<std::size_t>(window), load_rate, 120.0);
+            std::atomic<bool> stop_joins{false};
+            std::vector<double> join_times;
+            std::thread joiner([&] {
+                for (std::uint64_t player = 500; !stop_joins.load(); ++player) {
+                    const auto next = Clock::now() + std::chrono::seconds(1);
+                    join_times.push_back(joinFresh(port, player));
+                    std::this_thread::sleep_until(next);
+                }
+            });
+            const FanoutResult loaded = runDeform(
+                srv, pool, loadOps(10), static_cast<std::size_t>(window), load_rate, 120.0);
+            stop_joins = true;
+            joiner.join();
+            printLatency("srtm paced, no joins", quiet);
+            printLatency("srtm paced, a join a second", loaded);
+            const Summary joins = summarize(join_times);
+            std::printf(
+                "  %zu joins during the loaded run: p50 %.0f ms, max %.0f ms; p99 ratio %.2fx\n",
+                join_times.size(), joins.p50, joins.max,
+                quiet.latency_ms.p99 > 0 ? loaded.latency_ms.p99 / quiet.latency_ms.p99 : 0.0);
+            for (const FanoutResult* r : {&quiet, &loaded})
+                if (!r->completed || !r->check.all_match || r->check.hash_mismatches != 0) {
+                    std::fprintf(
+                        stderr, "net_bench: FAIL srtm joins under load: %s\n", r->failure.c_str());
+                    failed = true;
+                }
+            Json load = Json::object();
+            load.set("rate_per_second", load_rate);
+            load.set("seconds", load_seconds);
+            load.set("clients", static_cast<std::uint64_t>(pool.size()));
+            load.set("no_joins_latency_ms", toJson(quiet.latency_ms));
+            load.set("joins_latency_ms", toJson(loaded.latency_ms));
+            load.set("join_ms", toJson(joins));
+            load.set(
+                "p99_ratio",
+                quiet.latency_ms.p99 > 0 ? loaded.latency_ms.p99 / quiet.latency_ms.p99 : 0.0);
+            load.set(
+                "note", "request -> applied on every pool client, paced; a fresh viewer joins by "
+                        "snapshot every second during the second run; the join cache is kept at "
+                        "most rate ops old");
+            join.set("joins_under_load", std::move(load));
         }
         pool.clear();
         srv.stop();
