@@ -512,6 +512,10 @@ TEST(Session, AJoinWaitingForItsSnapshotDelaysNoOtherSession) {
             std::this_thread::sleep_for(std::chrono::milliseconds(1));
     };
     TestServer srv(smallMap(129), config);
+    struct Release { // a failed assertion must not leave the build held: srv would never stop
+        std::atomic<bool>& held;
+        ~Release() { held = false; }
+    } release{hold};
     asio::io_context io;
     TestClient deformer(io, srv.port(), token(1, Role::kDeformer));
     TestClient viewer(io, srv.port(), token(2, Role::kViewer));
