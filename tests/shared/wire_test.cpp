@@ -232,5 +232,22 @@ TEST(TileBlob, RoundTripsAndRefusesDisorder) {
     EXPECT_FALSE(decodeTiles(blob.compressed, blob.raw_bytes, t.spec(), 2).ok());
 }
 
+TEST(TileBlob, TheSizeLimitAdmitsAWhollyPatchedTile) {
+    // one entry of a tile whose 4096 cells are all patched: u32 length + 451,604 bytes of
+    // record. The limit must let it through to the record checks (here: a zeroed record,
+    // refused for what it holds, not for its size); one byte more is over the limit.
+    constexpr std::size_t kEntry = 4 + 12 + 2 * 65 * 65 * 4 + 64 * 64 * 102;
+    static_assert(kEntry == 451'608);
+    const Terrain t = craterMap();
+    const std::vector<std::uint8_t> whole(kEntry, 0);
+    const auto fits = decodeTiles(compress(whole), kEntry, t.spec(), 1);
+    ASSERT_FALSE(fits.ok());
+    EXPECT_NE(fits.error().code, ErrorCode::kOutOfRange) << fits.error().message;
+    const std::vector<std::uint8_t> over(kEntry + 1, 0);
+    const auto too_big = decodeTiles(compress(over), kEntry + 1, t.spec(), 1);
+    ASSERT_FALSE(too_big.ok());
+    EXPECT_EQ(too_big.error().code, ErrorCode::kOutOfRange) << too_big.error().message;
+}
+
 } // namespace
 } // namespace terrain::wire

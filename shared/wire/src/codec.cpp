@@ -195,8 +195,10 @@ Result<std::vector<TileRecord>> decodeTiles(
     std::uint64_t raw_bytes,
     const WorldSpec& spec,
     std::size_t max_tiles) {
-    // a tile record is at most 65 x 65 samples + 64 x 64 patches of 102 bytes, plus headers
-    constexpr std::uint64_t kMaxTileRecordBytes = 12 + 2 * 65 * 65 * 4 + 64 * 64 * 102;
+    // an entry is at most its u32 length, then tx, ty and the patch count, 65 x 65 heights and
+    // displacements, and 64 x 64 patches of 102 bytes (the length was missing: a reply whose
+    // every cell is patched was refused by 4 bytes a tile)
+    constexpr std::uint64_t kMaxTileRecordBytes = 4 + 12 + 2 * 65 * 65 * 4 + 64 * 64 * 102;
     Result<std::vector<std::uint8_t>> raw = decompress(
         compressed, static_cast<std::size_t>(raw_bytes),
         static_cast<std::size_t>(kMaxTileRecordBytes * max_tiles));
