@@ -399,6 +399,40 @@ TEST_F(JournalTest, historyRecordsKeepTheSegmentsAFullHistoryNeedsAfterACleanSto
     EXPECT_EQ(r->history.records.back().world_hash, hashes_[200]);
 }
 
+TEST_F(JournalTest, aSnapshotWrittenInHalvesLetsRecordsFollowMeanwhile) {
+    // the server's way: beginSnapshot, records appended while the file is written elsewhere,
+    // then snapshotWritten; and a crash before the file exists
+    {
+        Journal j = openJournal({Durability::kFsync, 2});
+        ASSERT_TRUE(j.initialize(genesis_).ok());
+        journalOps(j, 60);
+        ASSERT_TRUE(j.beginSnapshot(60).ok());
+        const Terrain at60 = live_;
+        journalOps(j, 75); // go on while the file is being written
+        ASSERT_TRUE(writeSnapshotFile(dir_, at60, 60).ok());
+        ASSERT_TRUE(j.snapshotWritten(Ok{}).ok());
+        EXPECT_EQ(j.stats().snapshots_written, 2u); // the genesis and this one
+        journalOps(j, 90);
+        ASSERT_TRUE(j.beginSnapshot(90).ok()); // never written: the process dies here
+        journalOps(j, 100);
+        // a failed write leaves the journal usable
+        EXPECT_FALSE(j.snapshotWritten(makeError(ErrorCode::kIo, "disk full")).ok());
+        EXPECT_EQ(j.failure(), nullptr);
+        journalOps(j, 110);
+    }
+    EXPECT_EQ(
+        filesStartingWith(dir_, "journal-").back().filename(), "journal-00000000000000000091.tjl");
+    auto r = recoverFresh();
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(r->snapshot_seq, 60u);
+    EXPECT_EQ(r->replayed_records, 50u);
+    EXPECT_EQ(r->seq, 110u);
+    EXPECT_EQ(r->terrain.worldHash(), live_.worldHash());
+    auto verified = verifyJournal(dir_);
+    ASSERT_TRUE(verified.ok()) << verified.error().message;
+    EXPECT_EQ(verified->last_seq, 110u);
+}
+
 TEST_F(JournalTest, keepOneSnapshotPrunesEverySegmentBeforeIt) {
     Journal j = openJournal({Durability::kFsync, 1});
     ASSERT_TRUE(j.initialize(genesis_).ok());

@@ -323,6 +323,41 @@ Status Journal::writeSnapshot(const Terrain& terrain, std::uint64_t seq) {
     return prune();
 }
 
+Status Journal::beginSnapshot(std::uint64_t seq) {
+    if (failure_)
+        return *failure_;
+    TERRAIN_ASSERT(ready_);
+    if (pending_records_ != 0 || seq != last_seq_)
+        return makeError(
+            ErrorCode::kOutOfRange, "beginSnapshot(seq " + std::to_string(seq) +
+                                        ") needs seq == lastSeq() (" + std::to_string(last_seq_) +
+                                        ") and nothing pending (" +
+                                        std::to_string(pending_records_) + " records)");
+    // as in writeSnapshot(): the closed segment is durable before anything can prune
+    if (auto s = detail::syncData(files_->segment.get(), segment_path_); !s)
+        return fail(s.error());
+    if (segment_first_seq_ != seq + 1) {
+        if (auto s = startSegment(seq + 1); !s)
+            return fail(s.error());
+    }
+    return Ok{};
+}
+
+Status Journal::snapshotWritten(const Status& written) {
+    if (!written)
+        return written;
+    ++stats_.snapshots_written;
+    if (failure_)
+        return *failure_;
+    return prune();
+}
+
+Status
+writeSnapshotFile(const std::filesystem::path& dir, const Terrain& terrain, std::uint64_t seq) {
+    const auto bytes = encodeSnapshot(terrain, seq);
+    return detail::writeFileAtomically(dir / detail::snapshotFileName(seq), bytes);
+}
+
 Status Journal::prune() {
     auto listing = detail::listJournalDir(dir_);
     if (!listing)

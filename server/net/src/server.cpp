@@ -169,12 +169,9 @@ void Server::commitPending() {
             requester->sendControl(reply);
         }
     }
-    if (journal_ && config_.journal_snapshot_every > 0 &&
-        broadcast_seq_ - last_journal_snapshot_seq_ >= config_.journal_snapshot_every) {
-        if (Status s = journal_->writeSnapshot(authority_.terrain(), broadcast_seq_); !s)
-            fail("journal snapshot failed: " + s.error().message);
-        last_journal_snapshot_seq_ = broadcast_seq_;
-    }
+    if (journal_ && config_.journal_snapshot_every > 0 && !journal_snapshot_in_flight_ &&
+        broadcast_seq_ - last_journal_snapshot_seq_ >= config_.journal_snapshot_every)
+        writeJournalSnapshot();
     // keep the join snapshot warm once joins have asked for one: rebuilt off the io thread
     // before it ages out, so a join finds a usable one instead of waiting for a build
     if (snapshot_ && !shutting_down_ &&
@@ -206,7 +203,7 @@ void Server::awaitSnapshot(const std::shared_ptr<Session>& session) {
 }
 
 void Server::buildSnapshot() {
-    if (snapshot_worker_->busy() || failed_)
+    if (join_build_in_flight_ || failed_)
         return;
     // a snapshot holds durable ops only: commit what is pending first (inside a broadcast loop
     // nothing is: the batch was committed before it)
@@ -214,15 +211,47 @@ void Server::buildSnapshot() {
     if (failed_)
         return;
     TERRAIN_ASSERT(pending_.empty());
+    join_build_in_flight_ = true;
     // the copy is the io thread's whole share of the work
-    snapshot_worker_->build(
-        authority_.terrain(), authority_.seq(), config_.snapshot_chunk_bytes,
-        [this](std::shared_ptr<const wire::SnapshotFrames> frames) {
-            onSnapshotBuilt(std::move(frames));
+    auto terrain = std::make_shared<const Terrain>(authority_.terrain());
+    snapshot_worker_->submit(
+        [this, terrain, seq = authority_.seq(),
+         chunk = config_.snapshot_chunk_bytes]() -> std::function<void()> {
+            auto frames = std::make_shared<const wire::SnapshotFrames>(
+                wire::buildSnapshotFrames(*terrain, seq, chunk));
+            return [this, frames = std::move(frames)]() mutable {
+                onSnapshotBuilt(std::move(frames));
+            };
+        });
+}
+
+void Server::writeJournalSnapshot() {
+    // the journal starts its next segment now and goes on appending; the file is encoded and
+    // written on the snapshot thread, and pruning follows once it is durable
+    if (Status s = journal_->beginSnapshot(broadcast_seq_); !s) {
+        fail("journal snapshot failed: " + s.error().message);
+        return;
+    }
+    last_journal_snapshot_seq_ = broadcast_seq_;
+    journal_snapshot_in_flight_ = true;
+    auto terrain = std::make_shared<const Terrain>(authority_.terrain());
+    snapshot_worker_->submit(
+        [this, terrain, seq = broadcast_seq_,
+         dir = journal_->directory()]() -> std::function<void()> {
+            Status written = journal::writeSnapshotFile(dir, *terrain, seq);
+            return [this, written = std::move(written), seq] {
+                journal_snapshot_in_flight_ = false;
+                if (Status s = journal_->snapshotWritten(written); !s)
+                    std::printf(
+                        "journal: snapshot at seq %llu not kept (the segments still hold every "
+                        "record): %s\n",
+                        static_cast<unsigned long long>(seq), s.error().message.c_str());
+            };
         });
 }
 
 void Server::onSnapshotBuilt(std::shared_ptr<const wire::SnapshotFrames> frames) {
+    join_build_in_flight_ = false;
     ++stats_.snapshots_built;
     if (!snapshot_ || frames->seq >= snapshot_->seq)
         snapshot_ = std::move(frames);

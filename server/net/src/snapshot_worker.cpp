@@ -1,61 +1,50 @@
 #include "snapshot_worker.h"
 
-#include <terrain/assert.h>
-
 #include <utility>
 
 namespace terrain::server {
 
-SnapshotWorker::SnapshotWorker(asio::io_context& io, std::function<void()> before_build)
-    : io_(io), before_build_(std::move(before_build)), thread_([this] { run(); }) {}
+SnapshotWorker::SnapshotWorker(asio::io_context& io, std::function<void()> before_each)
+    : io_(io), before_each_(std::move(before_each)), thread_([this] { run(); }) {}
 
 SnapshotWorker::~SnapshotWorker() {
     alive_.reset();
     {
         const std::lock_guard<std::mutex> lock(mutex_);
         stop_ = true;
+        jobs_.clear();
     }
     wake_.notify_one();
     thread_.join();
 }
 
-void SnapshotWorker::build(Terrain terrain, std::uint64_t seq, std::size_t chunk_bytes, Done done) {
-    TERRAIN_ASSERT(!busy_);
-    busy_ = true;
-    building_seq_ = seq;
-    // the completion first clears busy_, on the io thread, then hands the frames over
-    Done finish = [this, alive = std::weak_ptr<bool>(alive_),
-                   done = std::move(done)](std::shared_ptr<const wire::SnapshotFrames> frames) {
-        if (alive.expired())
-            return;
-        busy_ = false;
-        done(std::move(frames));
-    };
+void SnapshotWorker::submit(Job job) {
     {
         const std::lock_guard<std::mutex> lock(mutex_);
-        job_.emplace(Job{std::move(terrain), seq, chunk_bytes, std::move(finish)});
+        jobs_.push_back(std::move(job));
     }
     wake_.notify_one();
 }
 
 void SnapshotWorker::run() {
     for (;;) {
-        std::optional<Job> job;
+        Job job;
         {
             std::unique_lock<std::mutex> lock(mutex_);
-            wake_.wait(lock, [this] { return stop_ || job_.has_value(); });
+            wake_.wait(lock, [this] { return stop_ || !jobs_.empty(); });
             if (stop_)
                 return;
-            job.swap(job_);
+            job = std::move(jobs_.front());
+            jobs_.pop_front();
         }
-        if (before_build_)
-            before_build_();
-        auto frames = std::make_shared<const wire::SnapshotFrames>(
-            wire::buildSnapshotFrames(job->terrain, job->seq, job->chunk_bytes));
-        asio::post(io_, [done = std::move(job->done), frames = std::move(frames)]() mutable {
-            done(std::move(frames));
+        if (before_each_)
+            before_each_();
+        std::function<void()> done = job();
+        job = nullptr; // what it captured (a terrain copy) is freed here, off the io thread
+        asio::post(io_, [alive = alive_weak_, done = std::move(done)] {
+            if (!alive.expired())
+                done();
         });
-        // the terrain copy is freed here, off the io thread, with the job
     }
 }
 

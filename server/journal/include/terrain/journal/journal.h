@@ -143,6 +143,18 @@ class Journal {
     /// like commit(); a failure to delete old files is returned but leaves the journal usable).
     Status writeSnapshot(const Terrain& terrain, std::uint64_t seq);
 
+    /// writeSnapshot() in two halves, for a server that writes the snapshot file on another
+    /// thread (writeSnapshotFile()) while it goes on appending:
+    /// - beginSnapshot(seq) makes the current segment durable and starts journal-<seq + 1>, so
+    ///   records after seq go there. Same preconditions and errors as writeSnapshot(); an
+    ///   error fails the journal.
+    /// - snapshotWritten(status), once writeSnapshotFile() returned `status`: prunes like
+    ///   writeSnapshot() when it succeeded; returns `status` otherwise, and the journal stays
+    ///   usable (its segments hold every record; recovery uses the older snapshot).
+    /// A crash in between leaves at most a temp file, which recovery deletes.
+    Status beginSnapshot(std::uint64_t seq);
+    Status snapshotWritten(const Status& written);
+
     /// Last committed (durable) seq.
     std::uint64_t lastSeq() const { return last_seq_; }
 
@@ -184,6 +196,12 @@ class Journal {
     std::size_t pending_records_ = 0;
     JournalStats stats_;
 };
+
+/// Writes `dir`/snapshot-<seq> of `terrain` atomically (encode, temp file, fdatasync, rename,
+/// fsync of the directory). Touches no Journal: safe on another thread than the journal's, for
+/// the half between beginSnapshot() and snapshotWritten(). Errors: kIo.
+Status
+writeSnapshotFile(const std::filesystem::path& dir, const Terrain& terrain, std::uint64_t seq);
 
 /// What verifyJournal() checked.
 struct VerifyReport {

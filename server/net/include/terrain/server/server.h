@@ -54,7 +54,8 @@ struct ServerConfig {
     /// The journal writes a snapshot every this many ops (0: only on shutdown).
     std::uint64_t journal_snapshot_every = 20000;
     std::vector<std::uint8_t> token_secret;
-    /// Tests: runs on the snapshot thread before each join snapshot is built (to hold one).
+    /// Tests: runs on the snapshot thread before each of its jobs (join snapshot builds,
+    /// journal snapshot files), to hold one.
     std::function<void()> before_snapshot_build;
 };
 
@@ -134,6 +135,8 @@ class Server {
     /// Starts building a snapshot of the current state on the worker, unless one is building.
     void buildSnapshot();
     void onSnapshotBuilt(std::shared_ptr<const wire::SnapshotFrames> frames);
+    /// The journal's periodic snapshot at broadcastSeq(), its file written off the io thread.
+    void writeJournalSnapshot();
     /// Upper bound of one OpApplied frame (prefix + envelope), for budget arithmetic.
     static constexpr std::uint64_t kMaxOpFrameBytes = 64;
     /// True when `ops` broadcast frames take at most half a session's budget.
@@ -157,6 +160,8 @@ class Server {
     std::shared_ptr<const wire::SnapshotFrames> snapshot_; ///< the join snapshot cache
     std::unique_ptr<SnapshotWorker> snapshot_worker_;
     std::vector<std::weak_ptr<Session>> snapshot_waiters_;
+    bool join_build_in_flight_ = false;
+    bool journal_snapshot_in_flight_ = false;
     void scheduleAccept();
 
     bool shutting_down_ = false;
