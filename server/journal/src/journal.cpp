@@ -297,13 +297,13 @@ Status Journal::commit() {
     return Ok{};
 }
 
-Status Journal::writeSnapshot(const Terrain& terrain, std::uint64_t seq) {
+Status Journal::closeSegmentAt(const char* caller, std::uint64_t seq) {
     if (failure_)
         return *failure_;
     TERRAIN_ASSERT(ready_);
     if (pending_records_ != 0 || seq != last_seq_)
         return makeError(
-            ErrorCode::kOutOfRange, "writeSnapshot(seq " + std::to_string(seq) +
+            ErrorCode::kOutOfRange, std::string(caller) + "(seq " + std::to_string(seq) +
                                         ") needs seq == lastSeq() (" + std::to_string(last_seq_) +
                                         ") and nothing pending (" +
                                         std::to_string(pending_records_) + " records)");
@@ -311,36 +311,33 @@ Status Journal::writeSnapshot(const Terrain& terrain, std::uint64_t seq) {
     // the older snapshots that could otherwise have rebuilt its records
     if (auto s = detail::syncData(files_->segment.get(), segment_path_); !s)
         return fail(s.error());
-    const auto bytes = encodeSnapshot(terrain, seq);
-    if (auto s = detail::writeFileAtomically(dir_ / detail::snapshotFileName(seq), bytes); !s)
-        return fail(s.error());
-    ++stats_.snapshots_written;
+    return Ok{};
+}
+
+Status Journal::startSegmentAfter(std::uint64_t seq) {
     // an empty current segment already starts at seq + 1 (a second snapshot at the same seq)
     if (segment_first_seq_ != seq + 1) {
         if (auto s = startSegment(seq + 1); !s)
             return fail(s.error());
     }
+    return Ok{};
+}
+
+Status Journal::writeSnapshot(const Terrain& terrain, std::uint64_t seq) {
+    if (auto s = closeSegmentAt("writeSnapshot", seq); !s)
+        return s;
+    if (auto s = writeSnapshotFile(dir_, terrain, seq); !s)
+        return fail(s.error());
+    ++stats_.snapshots_written;
+    if (auto s = startSegmentAfter(seq); !s)
+        return s;
     return prune();
 }
 
 Status Journal::beginSnapshot(std::uint64_t seq) {
-    if (failure_)
-        return *failure_;
-    TERRAIN_ASSERT(ready_);
-    if (pending_records_ != 0 || seq != last_seq_)
-        return makeError(
-            ErrorCode::kOutOfRange, "beginSnapshot(seq " + std::to_string(seq) +
-                                        ") needs seq == lastSeq() (" + std::to_string(last_seq_) +
-                                        ") and nothing pending (" +
-                                        std::to_string(pending_records_) + " records)");
-    // as in writeSnapshot(): the closed segment is durable before anything can prune
-    if (auto s = detail::syncData(files_->segment.get(), segment_path_); !s)
-        return fail(s.error());
-    if (segment_first_seq_ != seq + 1) {
-        if (auto s = startSegment(seq + 1); !s)
-            return fail(s.error());
-    }
-    return Ok{};
+    if (auto s = closeSegmentAt("beginSnapshot", seq); !s)
+        return s;
+    return startSegmentAfter(seq);
 }
 
 Status Journal::snapshotWritten(const Status& written) {

@@ -180,6 +180,11 @@ class Journal {
     /// Opens an existing segment for appending and makes it the current one.
     Status continueSegment(const std::filesystem::path& path);
     Status prune();
+    /// The checks and first step of a snapshot at `seq` (named after `caller` in the error):
+    /// nothing pending, seq == lastSeq(), the current segment made durable.
+    Status closeSegmentAt(const char* caller, std::uint64_t seq);
+    /// Starts journal-<seq + 1> unless the current segment is it.
+    Status startSegmentAfter(std::uint64_t seq);
     /// Marks the journal failed for good and returns `error`.
     Error fail(Error error);
 
