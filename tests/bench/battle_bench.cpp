@@ -9,6 +9,7 @@
 #include "support/bench_facts.h"
 
 #include <terrain/battle.h>
+#include <terrain/genesis_delta.h>
 #include <terrain/io/dem_import.h>
 #include <terrain/io/png_image.h>
 #include <terrain/io/shaded_relief.h>
@@ -17,8 +18,10 @@
 #include <terrain/render/offscreen.h>
 #include <terrain/render/terrain_renderer.h>
 #include <terrain/roam/tessellator.h>
+#include <terrain/snapshot.h>
 #include <terrain/surface_query.h>
 #include <terrain/terrain.h>
+#include <terrain/wire/compression.h>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -234,6 +237,45 @@ int main(int argc, char** argv) {
         {"rss_mib", bench::mib(bench::residentBytes())},
         {"rss_growth_mib",
          bench::mib(bench::residentBytes() - std::min(rss_before, bench::residentBytes()))}};
+    // what a joiner downloads: the whole snapshot, or the delta from the genesis it holds
+    {
+        const std::uint64_t genesis_hash = t.genesisHash();
+        std::int32_t differing = 0;
+        for (std::int32_t tile = 0; tile < spec.tileCount(); ++tile)
+            differing += t.differsFromGenesis(tile) ? 1 : 0;
+        auto t0 = bench::Clock::now();
+        const auto full = encodeSnapshot(t, 0);
+        const double full_ms = bench::msSince(t0);
+        t0 = bench::Clock::now();
+        const auto delta = encodeGenesisDelta(t, 0, genesis_hash);
+        const double delta_ms = bench::msSince(t0);
+        Json join;
+        join["tiles"] = spec.tileCount();
+        join["tiles_differing"] = differing;
+        join["snapshot_raw_mib"] = bench::mib(full.size());
+        join["snapshot_encode_ms"] = full_ms;
+        join["delta_raw_mib"] = bench::mib(delta.size());
+        join["delta_encode_ms"] = delta_ms;
+        join["delta_raw_bytes_per_patch"] =
+            static_cast<double>(delta.size()) /
+            static_cast<double>(std::max<std::size_t>(1, t.patchCount()));
+        for (int level : {1, 3, 9}) {
+            t0 = bench::Clock::now();
+            const auto zf = wire::compress(full, level);
+            const double zf_ms = bench::msSince(t0);
+            t0 = bench::Clock::now();
+            const auto zd = wire::compress(delta, level);
+            const double zd_ms = bench::msSince(t0);
+            const std::string k = "zstd" + std::to_string(level);
+            join[k] = {
+                {"snapshot_mib", bench::mib(zf.size())},
+                {"snapshot_ms", zf_ms},
+                {"delta_mib", bench::mib(zd.size())},
+                {"delta_ms", zd_ms},
+                {"delta_seconds_at_20mbit", static_cast<double>(zd.size()) * 8.0 / 20e6}};
+        }
+        j["join_bytes"] = join;
+    }
     j["stability"] = {
         {"max_rise_m", f.max_rise_m},
         {"max_rise_own_m", f.max_rise_own_m},

@@ -13,6 +13,7 @@
 #include "support/tessellator_memory.h"
 
 #include <terrain/client/replica.h>
+#include <terrain/genesis_delta.h>
 #include <terrain/io/dem_import.h>
 #include <terrain/op_script.h>
 #include <terrain/procedural_map.h>
@@ -20,6 +21,7 @@
 #include <terrain/roam/tessellator.h>
 #include <terrain/snapshot.h>
 #include <terrain/surface_query.h>
+#include <terrain/wire/compression.h>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -77,6 +79,7 @@ int main(int argc, char** argv) {
         authority.emplace(std::move(*t));
         name = "procedural " + std::to_string(map_size) + " x " + std::to_string(map_size);
     }
+    const Terrain genesis = *authority; // what a client that ships the map holds
     CraterSeries series;
     series.seed = 7;
     series.count = craters;
@@ -87,6 +90,25 @@ int main(int argc, char** argv) {
         if (auto op = quantizeOp(r, authority->spec()); op && authority->apply(*op))
             ++applied;
     const std::vector<std::uint8_t> bytes = encodeSnapshot(*authority, 0);
+    // the same world for a client that holds its genesis: the delta, and its decode on it
+    const std::vector<std::uint8_t> delta =
+        encodeGenesisDelta(*authority, 0, authority->genesisHash());
+    const std::size_t snapshot_zstd = wire::compress(bytes).size();
+    const std::size_t delta_zstd = wire::compress(delta).size();
+    std::int32_t tiles_differing = 0;
+    for (std::int32_t tile = 0; tile < authority->spec().tileCount(); ++tile)
+        tiles_differing += authority->differsFromGenesis(tile) ? 1 : 0;
+    double delta_decode_ms = 0.0;
+    {
+        const auto td = bench::Clock::now();
+        auto from_genesis = decodeGenesisDelta(delta, genesis);
+        delta_decode_ms = bench::msSince(td);
+        if (!from_genesis || from_genesis->terrain.worldHash() != authority->worldHash()) {
+            std::fprintf(
+                stderr, "client_join_bench: the genesis delta did not rebuild the world\n");
+            return 2;
+        }
+    }
     const std::size_t rss_before = bench::residentBytes();
 
     const auto t0 = bench::Clock::now();
@@ -129,6 +151,12 @@ int main(int argc, char** argv) {
         {"craters", applied},
         {"patches", replica.terrain().patchCount()},
         {"snapshot_mib", bench::mib(bytes.size())},
+        {"snapshot_zstd_mib", bench::mib(snapshot_zstd)},
+        {"tiles", authority->spec().tileCount()},
+        {"tiles_differing", tiles_differing},
+        {"genesis_delta_mib", bench::mib(delta.size())},
+        {"genesis_delta_zstd_mib", bench::mib(delta_zstd)},
+        {"genesis_delta_decode_ms", delta_decode_ms},
         {"decode_ms", decode_ms},
         {"tessellator_build_ms", build_ms},
         {"first_update_ms", frame_ms},
@@ -149,6 +177,11 @@ int main(int argc, char** argv) {
         bench::mib(bytes.size()), join_ms, decode_ms, build_ms, frame_ms,
         static_cast<long long>(fs.triangles), tess_mib, tess.blockCount(), rss_mib,
         bench::mib(rss_before));
+    std::printf(
+        "  on the wire (zstd 1): snapshot %.2f MiB, genesis delta %.2f MiB (%d of %d tiles; "
+        "decode on the genesis %.0f ms)\n",
+        bench::mib(snapshot_zstd), bench::mib(delta_zstd), tiles_differing,
+        authority->spec().tileCount(), delta_decode_ms);
     bench::printTessellatorMemory(tess);
     if (!out.empty()) {
         std::ofstream file(out);

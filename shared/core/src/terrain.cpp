@@ -181,7 +181,7 @@ void Terrain::rehashTile(std::int32_t tile) {
     tiles_[static_cast<std::size_t>(tile)].hash = streamTileHash(tile);
 }
 
-std::uint64_t Terrain::streamTileHash(std::int32_t tile) const {
+std::uint64_t Terrain::streamTileHash(std::int32_t tile, bool genesis) const {
     // the bytes of appendTileBytes, streamed in chunks of a stack buffer: a battle zone's tile
     // holds hundreds of kilobytes of patches, which were copied and zero-filled for every op
     XXH3_state_t state;
@@ -200,8 +200,9 @@ std::uint64_t Terrain::streamTileHash(std::int32_t tile) const {
     const std::int32_t ty = tile / spec_.tilesX();
     put32(static_cast<std::uint32_t>(tx));
     put32(static_cast<std::uint32_t>(ty));
+    const std::vector<std::int32_t>& ground = genesis ? original_ : samples_;
     for (std::int32_t y = 0; y < kTileVertices; ++y) {
-        const std::int32_t* row = &samples_
+        const std::int32_t* row = &ground
                                       [static_cast<std::size_t>(ty * kTileCells + y) *
                                            static_cast<std::size_t>(padded_width_) +
                                        static_cast<std::size_t>(tx * kTileCells)];
@@ -221,12 +222,17 @@ std::uint64_t Terrain::streamTileHash(std::int32_t tile) const {
         for (std::int32_t x = 0; x < kTileVertices; ++x) {
             const std::int32_t vx = tx * kTileCells + x;
             const std::int32_t vy = ty * kTileCells + y;
-            put32(static_cast<std::uint32_t>(sample(vx, vy) - original(vx, vy)));
+            put32(genesis ? 0u : static_cast<std::uint32_t>(sample(vx, vy) - original(vx, vy)));
         }
     }
-    const auto& patches = tiles_[static_cast<std::size_t>(tile)].patches;
     if (used + sizeof(std::uint32_t) > chunk.size())
         flush();
+    if (genesis) {
+        put32(0); // no patches
+        flush();
+        return XXH3_64bits_digest(&state);
+    }
+    const auto& patches = tiles_[static_cast<std::size_t>(tile)].patches;
     put32(static_cast<std::uint32_t>(patches.size()));
     constexpr std::size_t kControlBytes = sizeof(std::int32_t) * kPatchControls;
     for (const PatchEntry& e : patches) {
@@ -251,6 +257,32 @@ void Terrain::rehashWorld() {
     for (std::size_t i = 0; i < tiles_.size(); ++i)
         tile_hashes_[i] = tiles_[i].hash;
     world_hash_ = hashWorld(spec_, tile_hashes_, scratch_);
+}
+
+std::uint64_t Terrain::genesisHash() const {
+    std::vector<std::uint64_t> hashes(tiles_.size());
+    for (std::size_t i = 0; i < tiles_.size(); ++i)
+        hashes[i] = streamTileHash(static_cast<std::int32_t>(i), true);
+    std::vector<std::uint8_t> scratch;
+    return hashWorld(spec_, hashes, scratch);
+}
+
+bool Terrain::differsFromGenesis(std::int32_t tile) const {
+    if (!tiles_[static_cast<std::size_t>(tile)].patches.empty())
+        return true;
+    const std::int32_t tx = tile % spec_.tilesX();
+    const std::int32_t ty = tile / spec_.tilesX();
+    for (std::int32_t y = 0; y < kTileVertices; ++y) {
+        const std::size_t row = static_cast<std::size_t>(ty * kTileCells + y) *
+                                    static_cast<std::size_t>(padded_width_) +
+                                static_cast<std::size_t>(tx * kTileCells);
+        if (!std::equal(
+                samples_.begin() + static_cast<std::ptrdiff_t>(row),
+                samples_.begin() + static_cast<std::ptrdiff_t>(row + kTileVertices),
+                original_.begin() + static_cast<std::ptrdiff_t>(row)))
+            return true;
+    }
+    return false;
 }
 
 std::uint64_t Terrain::computeTileHash(std::int32_t tile) const {

@@ -101,6 +101,13 @@ class Terrain {
         return tiles_[static_cast<std::size_t>(tile)].hash;
     }
     std::uint64_t worldHash() const { return world_hash_; }
+    /// The world hash of the genesis: the original ground with no op on it (no displacement, no
+    /// patches), the world as it was created. Clients that hold it join by a genesis delta
+    /// (genesis_delta.h). Hashes the whole map: callers cache it.
+    std::uint64_t genesisHash() const;
+    /// True when tile t differs from the genesis: a sample moved off the original ground
+    /// (shared edge vertices included) or a patch.
+    bool differsFromGenesis(std::int32_t tile) const;
 
     /// Hashes recomputed from the current state, ignoring the incremental ones (for checks and
     /// benchmarks; allocates a scratch buffer).
@@ -140,6 +147,8 @@ class Terrain {
     Terrain() = default;
 
     friend Result<DecodedSnapshot> decodeSnapshot(std::span<const std::uint8_t> bytes);
+    friend Result<DecodedSnapshot>
+    decodeGenesisDelta(std::span<const std::uint8_t> bytes, const Terrain& holder);
     /// create() without the tile and world hashes (decodeSnapshot sets them from its records).
     static Result<Terrain>
     createUnhashed(const WorldSpec& spec, std::span<const std::int32_t> samples);
@@ -177,8 +186,9 @@ class Terrain {
     /// tiles hold thousands of patches, and one insert at a time moved them all each time.
     void applyPatchChanges(std::span<const PatchChange> changes);
     void rehashTile(std::int32_t tile);
-    /// XXH3-64 of appendTileBytes(tile), without building the bytes.
-    std::uint64_t streamTileHash(std::int32_t tile) const;
+    /// XXH3-64 of appendTileBytes(tile), without building the bytes; with `genesis`, of the
+    /// bytes the tile had at creation (samples = original ground, no displacement, no patches).
+    std::uint64_t streamTileHash(std::int32_t tile, bool genesis = false) const;
     void rehashWorld();
 
     WorldSpec spec_;
