@@ -154,6 +154,60 @@ TEST(Session, ReconnectBeyondRetainedLogGetsSnapshot) {
     reconnectScenario(16, 40, false);
 }
 
+TEST(Session, AClientThatShipsTheMapJoinsByAGenesisDelta) {
+    server::ServerConfig config = fastConfig();
+    config.op_log_capacity = 16;
+    TestServer srv(smallMap(), config);
+    asio::io_context io;
+    TestClient deformer(io, srv.port(), token(1, Role::kDeformer));
+    ASSERT_TRUE(runUntil(io, [&] { return deformer.replica.ready(); }));
+    const WorldSpec spec = deformer.replica.terrain().spec();
+    std::mt19937_64 rng(21);
+    auto deform = [&](int n) {
+        const std::size_t target = deformer.answers.size() + static_cast<std::size_t>(n);
+        for (int i = 0; i < n; ++i)
+            deformer.connection->requestDeform(randomCrater(rng, spec));
+        ASSERT_TRUE(runUntil(io, [&] { return deformer.answers.size() == target; }));
+    };
+    // while the log still holds seq 1, a client at the genesis resumes from seq 0
+    deform(5);
+    TestClient early(io, srv.port(), token(2, Role::kViewer), true, {}, smallMap());
+    ASSERT_TRUE(runUntil(io, [&] { return early.replica.seq() == srv.seq(); }));
+    EXPECT_EQ(early.connection->stats().resumes, 1u);
+    EXPECT_EQ(early.connection->stats().snapshots, 0u);
+
+    // past the log: the genesis holder gets only what differs; the others the whole world
+    deform(60);
+    const std::uint64_t hash = srv.worldHash();
+    TestClient shipped(io, srv.port(), token(3, Role::kViewer), true, {}, smallMap());
+    TestClient bare(io, srv.port(), token(4, Role::kViewer));
+    TestClient other_map(io, srv.port(), token(5, Role::kViewer), true, {}, smallMap(257, 6));
+    std::vector<TestClient*> joiners = {&shipped, &bare, &other_map};
+    ASSERT_TRUE(runUntil(io, [&] {
+        return std::all_of(joiners.begin(), joiners.end(), [&](TestClient* c) {
+            return c->replica.ready() && c->replica.worldHash() == hash;
+        });
+    }));
+    EXPECT_EQ(shipped.connection->stats().genesis_deltas, 1u);
+    EXPECT_EQ(shipped.connection->stats().snapshots, 1u);
+    EXPECT_EQ(bare.connection->stats().genesis_deltas, 0u);
+    EXPECT_EQ(other_map.connection->stats().genesis_deltas, 0u); // its genesis is not the server's
+    EXPECT_EQ(other_map.connection->stats().snapshots, 1u);
+    // 65 small craters touch a few tiles of 16: the delta is a fraction of the world
+    EXPECT_LT(
+        shipped.connection->stats().snapshot_bytes * 3, bare.connection->stats().snapshot_bytes);
+    EXPECT_EQ(shipped.replica.terrain().computeWorldHash(), hash);
+
+    // and goes on with live ops
+    deform(10);
+    ASSERT_TRUE(runUntil(io, [&] {
+        return shipped.replica.seq() == srv.seq() && shipped.replica.worldHash() == srv.worldHash();
+    }));
+    const server::ServerStats stats = srv.stats();
+    EXPECT_EQ(stats.genesis_deltas_sent, 1u);
+    EXPECT_GE(stats.snapshots_sent, 3u); // the deformer, bare, other_map
+}
+
 TEST(Session, ReaderThatStopsReadingIsResyncedThenDisconnectedWithoutHurtingOthers) {
     server::ServerConfig config = fastConfig();
     config.outbound_budget_bytes = 8 << 10;

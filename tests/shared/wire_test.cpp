@@ -148,11 +148,15 @@ TEST(Compression, RefusesLiesAboutSize) {
     EXPECT_FALSE(decompress(c, raw.size(), raw.size()).ok());
 }
 
-Terrain craterMap() {
+Terrain craterMapGenesis() {
     ProceduralMapOptions o;
     o.width = 200;
     o.height = 170;
-    Terrain t = std::move(*makeProceduralMap(o));
+    return std::move(*makeProceduralMap(o));
+}
+
+Terrain craterMap() {
+    Terrain t = craterMapGenesis();
     std::mt19937_64 rng(3);
     for (int i = 0; i < 30; ++i) {
         OpRequest r{
@@ -214,6 +218,50 @@ TEST(SnapshotStream, RefusesChunksOutOfOrderAndOversizeSnapshots) {
     for (std::size_t i = 1; i < envs.size(); ++i)
         ASSERT_TRUE(c.add(envs[i].snapshot_chunk()).ok());
     EXPECT_EQ(c.finish().error().code, ErrorCode::kHashMismatch);
+}
+
+TEST(SnapshotStream, AGenesisDeltaNeedsTheGenesisItWasMadeOn) {
+    const Terrain t = craterMap();
+    const Terrain genesis = craterMapGenesis();
+    const SnapshotFrames frames = buildGenesisDeltaFrames(t, 42, t.genesisHash(), 4096);
+    EXPECT_EQ(frames.genesis_hash, t.genesisHash());
+    std::vector<pb::Envelope> envs;
+    for (const Frame& f : frames.frames) {
+        FrameReader r(1 << 20);
+        r.feed(*f);
+        envs.push_back(*decodeEnvelope(**r.next()));
+    }
+    EXPECT_EQ(envs[0].snapshot_begin().genesis_hash(), t.genesisHash());
+    auto assemble = [&](const Terrain* holder) {
+        SnapshotAssembler a(static_cast<std::size_t>(maxSnapshotOrDeltaBytes(t.spec())));
+        EXPECT_TRUE(a.begin(envs[0].snapshot_begin()).ok());
+        EXPECT_EQ(a.genesisHash(), t.genesisHash());
+        for (std::size_t i = 1; i < envs.size(); ++i)
+            EXPECT_TRUE(a.add(envs[i].snapshot_chunk()).ok());
+        return a.finish(holder);
+    };
+    auto s = assemble(&genesis);
+    ASSERT_TRUE(s.ok()) << s.error().message;
+    EXPECT_EQ(s->sequence, 42u);
+    EXPECT_EQ(s->terrain.worldHash(), t.worldHash());
+    // no state held, or another world's genesis: refused by name (the client then asks for the
+    // whole snapshot)
+    EXPECT_EQ(assemble(nullptr).error().code, ErrorCode::kUnsupported);
+    Terrain other = craterMapGenesis();
+    OpRequest r{OpKind::kRaise, 50.0, 50.0, 5.0, 1.0, 1.0};
+    ASSERT_TRUE(other.apply(*quantizeOp(r, other.spec())).ok());
+    const Terrain other_genesis = [&] {
+        // a world whose original ground differs: its samples at creation differ
+        WorldSpec spec = t.spec();
+        std::vector<std::int32_t> flat(
+            static_cast<std::size_t>(spec.width) * static_cast<std::size_t>(spec.height), 0);
+        return std::move(*Terrain::create(spec, flat));
+    }();
+    EXPECT_EQ(assemble(&other_genesis).error().code, ErrorCode::kHashMismatch);
+    // any later state of the same world holds the genesis
+    auto again = assemble(&other);
+    ASSERT_TRUE(again.ok()) << again.error().message;
+    EXPECT_EQ(again->terrain.worldHash(), t.worldHash());
 }
 
 TEST(TileBlob, RoundTripsAndRefusesDisorder) {

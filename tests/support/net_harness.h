@@ -100,7 +100,11 @@ struct TestClient {
         std::uint16_t port,
         std::string tok,
         bool reconnect = true,
-        client::OpPacing pacing = {}) {
+        client::OpPacing pacing = {},
+        std::optional<Terrain> genesis = std::nullopt) {
+        if (genesis) { // the map this client ships with
+            EXPECT_TRUE(replica.loadGenesis(std::move(*genesis)).ok());
+        }
         client::ConnectionConfig config;
         config.port = port;
         config.pacing = pacing;

@@ -99,6 +99,7 @@ void Connection::onConnected() {
         h->set_last_seq(replica_.diverged() ? replica_.verifiedSeq() : replica_.seq());
         h->set_last_hash(replica_.diverged() ? replica_.verifiedHash() : replica_.worldHash());
     }
+    h->set_genesis_hash(namedGenesis());
     send(hello);
     readMore();
 }
@@ -159,8 +160,8 @@ void Connection::handle(const pb::Envelope& envelope) {
             break;
         }
         // a snapshot can never be larger than this world's densest encoding
-        assembler_.setMaxRawBytes(static_cast<std::size_t>(
-            std::min<std::uint64_t>(config_.max_snapshot_bytes, wire::maxSnapshotBytes(*spec))));
+        assembler_.setMaxRawBytes(static_cast<std::size_t>(std::min<std::uint64_t>(
+            config_.max_snapshot_bytes, wire::maxSnapshotOrDeltaBytes(*spec))));
         if (w.resume()) {
             ++stats_.resumes;
             state_ = State::kLive;
@@ -182,12 +183,26 @@ void Connection::handle(const pb::Envelope& envelope) {
         }
         stats_.snapshot_bytes += envelope.snapshot_chunk().data().size();
         if (assembler_.complete()) {
-            Result<DecodedSnapshot> snapshot = assembler_.finish();
+            const bool delta = assembler_.genesisHash() != 0;
+            Result<DecodedSnapshot> snapshot =
+                assembler_.finish(replica_.ready() ? &replica_.terrain() : nullptr);
+            if (!snapshot && delta) {
+                // our genesis is not the one the delta was made on: the whole world instead
+                std::printf(
+                    "connection: genesis delta refused (%s); asking for the whole snapshot\n",
+                    snapshot.error().message.c_str());
+                genesis_refused_ = true;
+                awaiting_snapshot_ = false;
+                requestSnapshot();
+                break;
+            }
             if (!snapshot) {
                 lost("snapshot refused: " + snapshot.error().message, false);
                 break;
             }
             ++stats_.snapshots;
+            if (delta)
+                ++stats_.genesis_deltas;
             const std::uint64_t seq = snapshot->sequence;
             inbox_.clear(); // older than the snapshot
             pacer_.reset();
@@ -371,8 +386,14 @@ void Connection::requestSnapshot() {
     inbox_.clear(); // the snapshot supersedes them
     pacer_.reset();
     pb::Envelope request;
-    request.mutable_snapshot_request();
+    request.mutable_snapshot_request()->set_genesis_hash(namedGenesis());
     send(request);
+}
+
+std::uint64_t Connection::namedGenesis() const {
+    if (!config_.genesis_deltas || genesis_refused_)
+        return 0;
+    return replica_.genesisHash();
 }
 
 std::uint32_t Connection::requestDeform(const OpRequest& request) {

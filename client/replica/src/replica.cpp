@@ -9,6 +9,7 @@ namespace terrain::client {
 void Replica::loadSnapshot(DecodedSnapshot snapshot) {
     seq_ = snapshot.sequence;
     terrain_.emplace(std::move(snapshot.terrain));
+    genesis_hash_.reset();
     verified_seq_ = seq_;
     verified_hash_ = terrain_->worldHash();
     diverged_ = false;
@@ -65,6 +66,25 @@ std::vector<std::int32_t> Replica::suspectTiles() const {
     return tiles;
 }
 
+Status Replica::loadGenesis(Terrain genesis) {
+    const std::uint64_t hash = genesis.genesisHash();
+    if (hash != genesis.worldHash())
+        return makeError(
+            ErrorCode::kInvariantBroken,
+            "not a genesis: the world has ops on it (its hash differs from its original ground's)");
+    loadSnapshot(DecodedSnapshot{std::move(genesis), 0});
+    genesis_hash_ = hash;
+    return Ok{};
+}
+
+std::uint64_t Replica::genesisHash() const {
+    if (!terrain_)
+        return 0;
+    if (!genesis_hash_)
+        genesis_hash_ = terrain_->genesisHash();
+    return *genesis_hash_;
+}
+
 Result<std::vector<std::int32_t>> Replica::applyRepair(
     std::uint64_t seq,
     std::uint64_t world_hash,
@@ -81,6 +101,7 @@ Result<std::vector<std::int32_t>> Replica::applyRepair(
         return makeError(
             ErrorCode::kSizeMismatch, "repair carries a tile hash list of the wrong length");
     for (TileRecord& record : tiles) {
+        genesis_hash_.reset(); // a repaired tile carries its own original ground
         terrain_->replaceTile(
             record.tile, record.samples, record.originals, std::move(record.patches));
         markTile(record.tile);

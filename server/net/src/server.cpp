@@ -16,6 +16,7 @@ Server::Server(
     : io_(io), config_(std::move(config)), authority_(authority), journal_(journal), acceptor_(io),
       broadcast_seq_(authority.seq()), broadcast_hash_(authority.terrain().worldHash()),
       last_journal_snapshot_seq_(authority.seq()), op_frames_(authority.log().capacity()),
+      genesis_hash_(authority.terrain().genesisHash()),
       snapshot_worker_(std::make_unique<SnapshotWorker>(io, config_.before_snapshot_build)),
       shutdown_timer_(io), accept_retry_timer_(io) {
     // a log restored after a restart: its ops' broadcast frames, so clients resume from them
@@ -172,11 +173,12 @@ void Server::commitPending() {
     if (journal_ && config_.journal_snapshot_every > 0 && !journal_snapshot_in_flight_ &&
         broadcast_seq_ - last_journal_snapshot_seq_ >= config_.journal_snapshot_every)
         writeJournalSnapshot();
-    // keep the join snapshot warm once joins have asked for one: rebuilt off the io thread
-    // before it ages out, so a join finds a usable one instead of waiting for a build
-    if (snapshot_ && !shutting_down_ &&
-        broadcast_seq_ - snapshot_->seq >= config_.snapshot_cache_max_lag / 2)
-        buildSnapshot();
+    // keep the join snapshots warm once joins have asked for them: rebuilt off the io thread
+    // before they age out, so a join finds a usable one instead of waiting for a build
+    for (const JoinSnapshot& cached : join_snapshots_)
+        if (cached.frames && !shutting_down_ &&
+            broadcast_seq_ - cached.frames->seq >= config_.snapshot_cache_max_lag / 2)
+            buildSnapshot();
     if (on_broadcast)
         on_broadcast(broadcast_seq_);
 }
@@ -189,16 +191,18 @@ const wire::Frame& Server::opFrame(std::uint64_t seq) const {
     return op_frames_[seq % op_frames_.size()];
 }
 
-const wire::SnapshotFrames* Server::usableSnapshot() const {
+const wire::SnapshotFrames* Server::usableSnapshot(SnapshotKind kind) const {
     const std::uint64_t current = authority_.seq();
-    const bool usable = snapshot_ && snapshot_->seq >= authority_.log().resumableFrom() &&
-                        current - snapshot_->seq <= config_.snapshot_cache_max_lag &&
-                        tailFits(current - snapshot_->seq);
-    return usable ? snapshot_.get() : nullptr;
+    const wire::SnapshotFrames* cached = join_snapshots_[kind].frames.get();
+    const bool usable = cached && cached->seq >= authority_.log().resumableFrom() &&
+                        current - cached->seq <= config_.snapshot_cache_max_lag &&
+                        tailFits(current - cached->seq);
+    return usable ? cached : nullptr;
 }
 
-void Server::awaitSnapshot(const std::shared_ptr<Session>& session) {
-    snapshot_waiters_.push_back(session);
+void Server::awaitSnapshot(const std::shared_ptr<Session>& session, SnapshotKind kind) {
+    join_snapshots_[kind].waiters.push_back(session);
+    join_snapshots_[kind].wanted = true;
     buildSnapshot();
 }
 
@@ -214,14 +218,21 @@ void Server::buildSnapshot() {
     join_build_in_flight_ = true;
     // the copy is the io thread's whole share of the work
     auto terrain = std::make_shared<const Terrain>(authority_.terrain());
+    std::array<bool, kSnapshotKinds> kinds{};
+    for (std::size_t k = 0; k < kSnapshotKinds; ++k)
+        kinds[k] = join_snapshots_[k].wanted;
     snapshot_worker_->submit(
-        [this, terrain, seq = authority_.seq(),
+        [this, terrain, kinds, seq = authority_.seq(), genesis = genesis_hash_,
          chunk = config_.snapshot_chunk_bytes]() -> std::function<void()> {
-            auto frames = std::make_shared<const wire::SnapshotFrames>(
-                wire::buildSnapshotFrames(*terrain, seq, chunk));
-            return [this, frames = std::move(frames)]() mutable {
-                onSnapshotBuilt(std::move(frames));
-            };
+            std::array<std::shared_ptr<const wire::SnapshotFrames>, kSnapshotKinds> built;
+            if (kinds[kWholeSnapshot])
+                built[kWholeSnapshot] = std::make_shared<const wire::SnapshotFrames>(
+                    wire::buildSnapshotFrames(*terrain, seq, chunk));
+            if (kinds[kGenesisDelta])
+                built[kGenesisDelta] = std::make_shared<const wire::SnapshotFrames>(
+                    wire::buildGenesisDeltaFrames(*terrain, seq, genesis, chunk));
+            return
+                [this, built = std::move(built)]() mutable { onSnapshotBuilt(std::move(built)); };
         });
 }
 
@@ -250,24 +261,34 @@ void Server::writeJournalSnapshot() {
         });
 }
 
-void Server::onSnapshotBuilt(std::shared_ptr<const wire::SnapshotFrames> frames) {
+void Server::onSnapshotBuilt(
+    std::array<std::shared_ptr<const wire::SnapshotFrames>, kSnapshotKinds> built) {
     join_build_in_flight_ = false;
-    ++stats_.snapshots_built;
-    if (!snapshot_ || frames->seq >= snapshot_->seq)
-        snapshot_ = std::move(frames);
-    std::vector<std::weak_ptr<Session>> waiters;
-    waiters.swap(snapshot_waiters_);
-    const wire::SnapshotFrames* usable = usableSnapshot();
-    for (const auto& waiter : waiters) {
-        const std::shared_ptr<Session> session = waiter.lock();
-        if (!session || !session->awaitingSnapshot())
-            continue;
-        if (usable)
-            session->deliverSnapshot(*usable);
-        else
-            snapshot_waiters_.push_back(waiter); // too far behind already: the next build
+    bool rebuild = false;
+    for (std::size_t k = 0; k < kSnapshotKinds; ++k) {
+        JoinSnapshot& cache = join_snapshots_[k];
+        if (built[k]) {
+            ++stats_.snapshots_built;
+            if (!cache.frames || built[k]->seq >= cache.frames->seq)
+                cache.frames = std::move(built[k]);
+        }
+        std::vector<std::weak_ptr<Session>> waiters;
+        waiters.swap(cache.waiters);
+        const wire::SnapshotFrames* usable = usableSnapshot(static_cast<SnapshotKind>(k));
+        for (const auto& waiter : waiters) {
+            const std::shared_ptr<Session> session = waiter.lock();
+            // a session that changed the kind it asks for waits in the other list too
+            if (!session || !session->awaitingSnapshot() ||
+                session->holdsGenesis() != (k == kGenesisDelta))
+                continue;
+            if (usable)
+                session->deliverSnapshot(*usable);
+            else
+                cache.waiters.push_back(waiter); // not built, or too far behind: the next build
+        }
+        rebuild = rebuild || !cache.waiters.empty();
     }
-    if (!snapshot_waiters_.empty())
+    if (rebuild)
         buildSnapshot();
 }
 

@@ -134,7 +134,7 @@ bool Session::handleFrame(const pb::Envelope& envelope) {
         onRepairRequest(envelope.repair_request());
         break;
     case Body::kSnapshotRequest:
-        onSnapshotRequest();
+        onSnapshotRequest(envelope.snapshot_request());
         break;
     case Body::kPing: {
         pb::Envelope reply;
@@ -181,6 +181,7 @@ void Session::onHello(const pb::Hello& hello) {
         return;
     }
     claims_ = *claims;
+    genesis_hash_ = hello.genesis_hash();
     // a join needs every accepted op committed and broadcast first, so that the snapshot holds
     // durable ops only; this session is not live yet, so that broadcast skips it
     server_.commitPending();
@@ -211,12 +212,16 @@ void Session::onHello(const pb::Hello& hello) {
     w->set_resume(resume);
     w->set_max_frame_bytes(static_cast<std::uint32_t>(server_.config_.max_inbound_frame_bytes));
     w->set_deform_rate_per_second(server_.config_.deform_rate_per_second);
+    w->set_genesis_hash(server_.genesis_hash_);
     sendControl(welcome);
     std::printf(
         "session %llu (%s): player %llu as %s, %s at seq %llu\n",
         static_cast<unsigned long long>(id_), peer_.c_str(),
         static_cast<unsigned long long>(claims_.player_id), toString(claims_.role),
-        resume ? "resumes" : "joins by snapshot", static_cast<unsigned long long>(current));
+        resume           ? "resumes"
+        : holdsGenesis() ? "joins by genesis delta"
+                         : "joins by snapshot",
+        static_cast<unsigned long long>(current));
     if (resume)
         sendTail(hello.last_seq());
     else
@@ -369,7 +374,7 @@ void Session::onRepairRequest(const pb::RepairRequest& request) {
     sendControl(reply);
 }
 
-void Session::onSnapshotRequest() {
+void Session::onSnapshotRequest(const pb::SnapshotRequest& request) {
     if (!repair_limiter_.tryConsume(now())) {
         close(pb::REASON_RATE_LIMITED, "more snapshot requests per second than the limit");
         return;
@@ -379,8 +384,14 @@ void Session::onSnapshotRequest() {
         return;
     }
     server_.commitPending();
-    if (state_ == State::kLive && !server_.failed_)
-        sendSnapshotAndTail();
+    if (state_ != State::kLive || server_.failed_)
+        return;
+    if (awaiting_snapshot_ && request.genesis_hash() != genesis_hash_) {
+        // the kind asked for changed (a delta this client could not decode): ask again
+        awaiting_snapshot_ = false;
+    }
+    genesis_hash_ = request.genesis_hash();
+    sendSnapshotAndTail();
 }
 
 void Session::onHealthRequest() {
@@ -399,19 +410,29 @@ void Session::onHealthRequest() {
     sendControl(reply);
 }
 
+bool Session::holdsGenesis() const {
+    return genesis_hash_ != 0 && genesis_hash_ == server_.genesis_hash_;
+}
+
 void Session::sendSnapshotAndTail() {
-    if (const wire::SnapshotFrames* snapshot = server_.usableSnapshot()) {
+    const Server::SnapshotKind kind =
+        holdsGenesis() ? Server::kGenesisDelta : Server::kWholeSnapshot;
+    if (const wire::SnapshotFrames* snapshot = server_.usableSnapshot(kind)) {
         deliverSnapshot(*snapshot);
         return;
     }
     if (awaiting_snapshot_)
         return; // already asked
     awaiting_snapshot_ = true;
-    server_.awaitSnapshot(shared_from_this());
+    server_.awaitSnapshot(shared_from_this(), kind);
 }
 
 void Session::deliverSnapshot(const wire::SnapshotFrames& snapshot) {
     awaiting_snapshot_ = false;
+    if (snapshot.genesis_hash != 0)
+        ++server_.stats_.genesis_deltas_sent;
+    else
+        ++server_.stats_.snapshots_sent;
     for (const wire::Frame& frame : snapshot.frames)
         enqueue(frame, FrameClass::kSnapshot);
     sent_through_ = snapshot.seq;

@@ -35,6 +35,8 @@ class Session : public std::enable_shared_from_this<Session> {
     /// Waiting for a join or resync snapshot (ops are not queued meanwhile: the retained ones
     /// follow the snapshot).
     bool awaitingSnapshot() const { return awaiting_snapshot_ && state_ == State::kLive; }
+    /// True when this session holds the server's genesis: it is sent genesis deltas.
+    bool holdsGenesis() const;
     /// Queues `snapshot` and the retained ops after it.
     void deliverSnapshot(const wire::SnapshotFrames& snapshot);
 
@@ -54,7 +56,7 @@ class Session : public std::enable_shared_from_this<Session> {
     void onHeightQuery(const wire::pb::HeightQuery& query);
     void onRayQuery(const wire::pb::RayQuery& query);
     void onRepairRequest(const wire::pb::RepairRequest& request);
-    void onSnapshotRequest();
+    void onSnapshotRequest(const wire::pb::SnapshotRequest& request);
     void onHealthRequest();
     /// Queues the join snapshot and the retained ops after it, now if the cached one is usable,
     /// else once the server has built one.
@@ -77,6 +79,7 @@ class Session : public std::enable_shared_from_this<Session> {
     bool writing_ = false;
     bool resynced_since_drain_ = false;
     bool awaiting_snapshot_ = false;
+    std::uint64_t genesis_hash_ = 0; // the genesis the client says it holds (Hello, requests)
     std::uint64_t sent_through_ = 0; // last op seq queued (or covered by a queued snapshot)
     TokenClaims claims_{};
     RateLimiter deform_limiter_;

@@ -1,3 +1,4 @@
+#include <terrain/genesis_delta.h>
 #include <terrain/wire/compression.h>
 #include <terrain/wire/snapshot_stream.h>
 
@@ -15,9 +16,14 @@ std::size_t SnapshotFrames::totalBytes() const {
     return n;
 }
 
-SnapshotFrames
-buildSnapshotFrames(const Terrain& terrain, std::uint64_t seq, std::size_t chunk_bytes) {
-    const std::vector<std::uint8_t> raw = encodeSnapshot(terrain, seq);
+namespace {
+
+SnapshotFrames chunked(
+    const Terrain& terrain,
+    std::uint64_t seq,
+    std::uint64_t genesis_hash,
+    const std::vector<std::uint8_t>& raw,
+    std::size_t chunk_bytes) {
     const std::vector<std::uint8_t> compressed = compress(raw);
     chunk_bytes = std::max<std::size_t>(chunk_bytes, 1);
     const std::size_t chunks = (compressed.size() + chunk_bytes - 1) / chunk_bytes;
@@ -25,6 +31,7 @@ buildSnapshotFrames(const Terrain& terrain, std::uint64_t seq, std::size_t chunk
     SnapshotFrames out;
     out.seq = seq;
     out.world_hash = terrain.worldHash();
+    out.genesis_hash = genesis_hash;
     out.raw_bytes = raw.size();
     out.compressed_bytes = compressed.size();
     pb::Envelope envelope;
@@ -34,6 +41,7 @@ buildSnapshotFrames(const Terrain& terrain, std::uint64_t seq, std::size_t chunk
     begin->set_raw_bytes(raw.size());
     begin->set_compressed_bytes(compressed.size());
     begin->set_chunk_count(static_cast<std::uint32_t>(chunks));
+    begin->set_genesis_hash(genesis_hash);
     out.frames.push_back(encodeFrame(envelope));
     for (std::size_t i = 0; i < chunks; ++i) {
         pb::Envelope chunk_envelope;
@@ -45,6 +53,26 @@ buildSnapshotFrames(const Terrain& terrain, std::uint64_t seq, std::size_t chunk
         out.frames.push_back(encodeFrame(chunk_envelope));
     }
     return out;
+}
+
+} // namespace
+
+SnapshotFrames
+buildSnapshotFrames(const Terrain& terrain, std::uint64_t seq, std::size_t chunk_bytes) {
+    return chunked(terrain, seq, 0, encodeSnapshot(terrain, seq), chunk_bytes);
+}
+
+SnapshotFrames buildGenesisDeltaFrames(
+    const Terrain& terrain,
+    std::uint64_t seq,
+    std::uint64_t genesis_hash,
+    std::size_t chunk_bytes) {
+    return chunked(
+        terrain, seq, genesis_hash, encodeGenesisDelta(terrain, seq, genesis_hash), chunk_bytes);
+}
+
+std::uint64_t maxSnapshotOrDeltaBytes(const WorldSpec& spec) {
+    return std::max(maxSnapshotBytes(spec), maxGenesisDeltaBytes(spec));
 }
 
 std::uint64_t maxSnapshotBytes(const WorldSpec& spec) {
@@ -71,6 +99,7 @@ void SnapshotAssembler::reset() {
     received_bytes_ = 0;
     raw_filled_ = 0;
     frame_done_ = false;
+    genesis_hash_ = 0;
     raw_.reset();
     ZSTD_DCtx_reset(stream_->ctx, ZSTD_reset_session_only);
 }
@@ -87,6 +116,7 @@ Status SnapshotAssembler::begin(const pb::SnapshotBegin& begin) {
     active_ = true;
     seq_ = begin.seq();
     world_hash_ = begin.world_hash();
+    genesis_hash_ = begin.genesis_hash();
     raw_bytes_ = begin.raw_bytes();
     compressed_bytes_ = begin.compressed_bytes();
     chunk_count_ = begin.chunk_count();
@@ -127,7 +157,7 @@ Status SnapshotAssembler::add(const pb::SnapshotChunk& chunk) {
     return Ok{};
 }
 
-Result<DecodedSnapshot> SnapshotAssembler::finish() {
+Result<DecodedSnapshot> SnapshotAssembler::finish(const Terrain* holder) {
     if (!complete()) {
         reset();
         return makeError(ErrorCode::kTruncated, "snapshot finished before its last chunk");
@@ -141,8 +171,13 @@ Result<DecodedSnapshot> SnapshotAssembler::finish() {
     const std::size_t raw_size = static_cast<std::size_t>(raw_bytes_);
     const std::uint64_t seq = seq_;
     const std::uint64_t hash = world_hash_;
+    const bool delta = genesis_hash_ != 0;
     reset();
-    Result<DecodedSnapshot> decoded = decodeSnapshot({raw.get(), raw_size});
+    if (delta && holder == nullptr)
+        return makeError(
+            ErrorCode::kUnsupported, "a genesis delta arrived, but no genesis is held here");
+    Result<DecodedSnapshot> decoded = delta ? decodeGenesisDelta({raw.get(), raw_size}, *holder)
+                                            : decodeSnapshot({raw.get(), raw_size});
     if (!decoded)
         return decoded.error();
     if (decoded->sequence != seq || decoded->terrain.worldHash() != hash)

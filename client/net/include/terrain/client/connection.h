@@ -32,6 +32,10 @@ struct ConnectionConfig {
     std::size_t max_snapshot_bytes = std::size_t{2} << 30;
     bool reconnect = true;
     double reconnect_delay_seconds = 0.2;
+    /// Name the genesis the replica holds in Hello and snapshot requests, so that joins and
+    /// resyncs come as genesis deltas (only the tiles that differ from it) when the server's
+    /// genesis is the same. Off: always the whole snapshot.
+    bool genesis_deltas = true;
     /// Repairs tried before falling back to a snapshot.
     int max_repair_rounds = 3;
     /// Tiles per RepairRequest (the server's limit is 64); more are asked in later rounds.
@@ -43,9 +47,10 @@ struct ConnectionConfig {
 
 struct ConnectionStats {
     std::uint64_t connects = 0;
-    std::uint64_t resumes = 0;   ///< joins that got only the missed ops
-    std::uint64_t snapshots = 0; ///< joins or resyncs by snapshot
-    std::uint64_t snapshot_bytes = 0;
+    std::uint64_t resumes = 0;        ///< joins that got only the missed ops
+    std::uint64_t snapshots = 0;      ///< joins or resyncs by snapshot (either kind)
+    std::uint64_t genesis_deltas = 0; ///< of which genesis deltas
+    std::uint64_t snapshot_bytes = 0; ///< compressed bytes of both kinds
     std::uint64_t bytes_in = 0;
     std::uint64_t bytes_out = 0;
     std::uint64_t frames_in = 0;
@@ -140,6 +145,8 @@ class Connection : public std::enable_shared_from_this<Connection> {
     void onRepairState(const wire::pb::RepairState& state);
     void requestRepair(std::vector<std::int32_t> tiles, bool want_hashes);
     void requestSnapshot();
+    /// The genesis named to the server: the replica's, unless off or refused once (0: none).
+    std::uint64_t namedGenesis() const;
     void send(const wire::pb::Envelope& envelope);
     void writeMore();
     /// Closes the socket; reconnects later unless stopped or the reason is final.
@@ -158,6 +165,7 @@ class Connection : public std::enable_shared_from_this<Connection> {
     std::vector<std::uint8_t> writing_; // frames being written
     bool write_busy_ = false;
     bool awaiting_snapshot_ = false;
+    bool genesis_refused_ = false; // a delta on our genesis failed: ask for whole snapshots
     struct Arrived {
         std::uint64_t seq = 0;
         DeformOp op;

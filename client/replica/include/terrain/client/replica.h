@@ -56,6 +56,15 @@ class Replica {
     /// Replaces the whole state (the snapshot was decoded and checked by the core).
     void loadSnapshot(DecodedSnapshot snapshot);
 
+    /// Starts from the world's genesis, the map as it was created (a game ships it, or makes it
+    /// from the procedural seed): the state at seq 0. A connection then resumes from seq 0
+    /// while the server still holds every op, and otherwise joins by a genesis delta.
+    /// Errors: kInvariantBroken when `genesis` has ops on it (it is not a genesis).
+    Status loadGenesis(Terrain genesis);
+    /// The genesis of the world held (Terrain::genesisHash: its original ground), computed once
+    /// per loaded state; 0 before any state.
+    std::uint64_t genesisHash() const;
+
     /// Applies op `seq` on top of seq - 1 and compares the hash. Errors (the caller resyncs by
     /// snapshot): kOutOfRange for a gap (seq > current + 1) or no state yet; the core's refusal
     /// if the op does not apply (validation depends on the spec only, so this means a bad peer).
@@ -84,12 +93,16 @@ class Replica {
 
     /// Tests only: corrupts the replica behind the hashes' back (e.g. a local op the server never
     /// sent), to exercise detection and repair.
-    Terrain& terrainForTesting() { return *terrain_; }
+    Terrain& terrainForTesting() {
+        genesis_hash_.reset();
+        return *terrain_;
+    }
 
   private:
     void markTile(std::int32_t tile);
 
     std::optional<Terrain> terrain_;
+    mutable std::optional<std::uint64_t> genesis_hash_; // cache: it hashes the whole map
     std::uint64_t seq_ = 0;
     std::uint64_t verified_seq_ = 0;
     std::uint64_t verified_hash_ = 0;

@@ -11,6 +11,7 @@
 #include <terrain/wire/codec.h>
 #include <terrain/wire/snapshot_stream.h>
 
+#include <array>
 #include <asio.hpp>
 #include <cstddef>
 #include <cstdint>
@@ -69,7 +70,9 @@ struct ServerStats {
     std::uint64_t slow_disconnects = 0;
     std::uint64_t bad_frames = 0;
     std::uint64_t bad_tokens = 0;
-    std::uint64_t snapshots_built = 0;
+    std::uint64_t snapshots_built = 0;     ///< join snapshots built (either kind)
+    std::uint64_t snapshots_sent = 0;      ///< whole snapshots queued to sessions
+    std::uint64_t genesis_deltas_sent = 0; ///< genesis deltas queued to sessions
     std::uint64_t repairs_served = 0;
     std::uint64_t bytes_queued = 0; ///< all frames handed to sessions
 };
@@ -101,6 +104,8 @@ class Server {
     /// The world hash after op broadcastSeq(): the state clients see. The authority's own
     /// terrain may be ahead of it by ops not yet committed.
     std::uint64_t broadcastHash() const { return broadcast_hash_; }
+    /// The world's genesis (Terrain::genesisHash): clients that hold it join by a delta.
+    std::uint64_t genesisHash() const { return genesis_hash_; }
     /// Bytes queued in all sessions (shared frames counted per session).
     std::size_t queuedBytes() const;
     /// Called on the io thread whenever a batch of ops has been broadcast (benchmarks, logs).
@@ -108,6 +113,15 @@ class Server {
 
   private:
     friend class Session;
+
+    /// What a joining or resyncing session is sent: the whole world, or its difference from
+    /// the genesis the session holds.
+    enum SnapshotKind : std::size_t { kWholeSnapshot = 0, kGenesisDelta = 1, kSnapshotKinds = 2 };
+    struct JoinSnapshot {
+        std::shared_ptr<const wire::SnapshotFrames> frames; ///< the cache
+        std::vector<std::weak_ptr<Session>> waiters;
+        bool wanted = false; ///< asked for once: built with every later build and kept warm
+    };
 
     struct PendingOp {
         Accepted accepted;
@@ -129,12 +143,14 @@ class Server {
     /// The cached join snapshot if a session may start from it now: its successors are all
     /// retained, it is not too far behind, and the ops after it fit well inside a session's
     /// budget (a join must not start as a slow consumer); else nullptr.
-    const wire::SnapshotFrames* usableSnapshot() const;
+    const wire::SnapshotFrames* usableSnapshot(SnapshotKind kind) const;
     /// `session` gets a snapshot as soon as a usable one is built (off the io thread).
-    void awaitSnapshot(const std::shared_ptr<Session>& session);
-    /// Starts building a snapshot of the current state on the worker, unless one is building.
+    void awaitSnapshot(const std::shared_ptr<Session>& session, SnapshotKind kind);
+    /// Starts building the wanted kinds of snapshot of the current state on the worker, unless
+    /// a build is running.
     void buildSnapshot();
-    void onSnapshotBuilt(std::shared_ptr<const wire::SnapshotFrames> frames);
+    void
+    onSnapshotBuilt(std::array<std::shared_ptr<const wire::SnapshotFrames>, kSnapshotKinds> built);
     /// The journal's periodic snapshot at broadcastSeq(), its file written off the io thread.
     void writeJournalSnapshot();
     /// Upper bound of one OpApplied frame (prefix + envelope), for budget arithmetic.
@@ -157,9 +173,9 @@ class Server {
     std::uint64_t broadcast_hash_ = 0; ///< after op broadcast_seq_
     std::uint64_t last_journal_snapshot_seq_ = 0;
     std::vector<wire::Frame> op_frames_; // ring parallel to the authority's op log
-    std::shared_ptr<const wire::SnapshotFrames> snapshot_; ///< the join snapshot cache
+    std::uint64_t genesis_hash_ = 0;
+    std::array<JoinSnapshot, kSnapshotKinds> join_snapshots_;
     std::unique_ptr<SnapshotWorker> snapshot_worker_;
-    std::vector<std::weak_ptr<Session>> snapshot_waiters_;
     bool join_build_in_flight_ = false;
     bool journal_snapshot_in_flight_ = false;
     void scheduleAccept();

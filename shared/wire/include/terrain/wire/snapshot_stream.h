@@ -20,6 +20,7 @@ inline constexpr std::size_t kDefaultSnapshotChunkBytes = std::size_t{256} << 10
 struct SnapshotFrames {
     std::uint64_t seq = 0;
     std::uint64_t world_hash = 0;
+    std::uint64_t genesis_hash = 0; ///< set: a genesis delta on that genesis (genesis_delta.h)
     std::uint64_t raw_bytes = 0;
     std::uint64_t compressed_bytes = 0;
     std::vector<Frame> frames; ///< begin, then the chunks
@@ -31,9 +32,19 @@ SnapshotFrames buildSnapshotFrames(
     std::uint64_t seq,
     std::size_t chunk_bytes = kDefaultSnapshotChunkBytes);
 
+/// The same for a client that holds the genesis `genesis_hash` (terrain.genesisHash()): the
+/// frames carry a genesis delta.
+SnapshotFrames buildGenesisDeltaFrames(
+    const Terrain& terrain,
+    std::uint64_t seq,
+    std::uint64_t genesis_hash,
+    std::size_t chunk_bytes = kDefaultSnapshotChunkBytes);
+
 /// Largest core snapshot a world of this spec can have (every cell patched): the client's bound
 /// on what a server may announce.
 std::uint64_t maxSnapshotBytes(const WorldSpec& spec);
+/// The larger of maxSnapshotBytes and maxGenesisDeltaBytes: the limit for either kind.
+std::uint64_t maxSnapshotOrDeltaBytes(const WorldSpec& spec);
 
 /// Client side. Refuses out-of-order chunks, more data than announced, and sizes above limits.
 /// Chunks are decompressed as they arrive (zstd streaming), so decompression overlaps the
@@ -53,9 +64,13 @@ class SnapshotAssembler {
     void setMaxRawBytes(std::size_t max_raw_bytes) { max_raw_bytes_ = max_raw_bytes; }
     bool active() const { return active_; }
     bool complete() const { return active_ && next_chunk_ == chunk_count_; }
+    /// The genesis the snapshot being assembled is a delta on (0: a whole snapshot).
+    std::uint64_t genesisHash() const { return genesis_hash_; }
     /// Decompresses and decodes (every core check); the result's seq and hash must equal the
-    /// announced ones (kHashMismatch otherwise). Resets the assembler either way.
-    Result<DecodedSnapshot> finish();
+    /// announced ones (kHashMismatch otherwise). A genesis delta is decoded on the genesis of
+    /// `holder` (any state of the same world; kUnsupported when there is none). Resets the
+    /// assembler either way.
+    Result<DecodedSnapshot> finish(const Terrain* holder = nullptr);
     void reset();
 
   private:
@@ -63,6 +78,7 @@ class SnapshotAssembler {
     bool active_ = false;
     std::uint64_t seq_ = 0;
     std::uint64_t world_hash_ = 0;
+    std::uint64_t genesis_hash_ = 0;
     std::uint64_t raw_bytes_ = 0;
     std::uint64_t compressed_bytes_ = 0;
     std::uint32_t chunk_count_ = 0;
