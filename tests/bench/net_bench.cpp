@@ -20,6 +20,7 @@
 #include <terrain/server/auth_token.h>
 #include <terrain/server/authority.h>
 #include <terrain/server/server.h>
+#include <terrain/server/server_thread.h>
 #include <terrain/wire/snapshot_stream.h>
 
 #include <CLI/CLI.hpp>
@@ -110,7 +111,8 @@ Json toJson(const Summary& s) {
 using terrain::testing::IoThread;
 using terrain::testing::token;
 
-/// Authority + Server on their own thread. `prepare` runs on the authority before the server
+/// server::ServerThread with the test secret, exiting on a start failure, and the peak of the
+/// bytes queued in all sessions at broadcasts. `prepare` runs on the authority before the server
 /// exists (ops applied there are the server's history, retained in its log).
 class ServerThread {
   public:
@@ -120,54 +122,31 @@ class ServerThread {
         const std::function<void(server::Authority&)>& prepare = {},
         journal::Journal* journal = nullptr) {
         config.token_secret = terrain::testing::testSecret();
-        authority_ =
-            std::make_unique<server::Authority>(std::move(terrain), 0, config.op_log_capacity);
-        if (prepare)
-            prepare(*authority_);
-        thread_.call([&] {
-            server_ = std::make_unique<server::Server>(thread_.io(), config, *authority_, journal);
-            server_->on_broadcast = [this](std::uint64_t) {
-                queued_peak_ = std::max(queued_peak_, server_->queuedBytes());
+        server::ServerThreadOptions options;
+        options.config = std::move(config);
+        options.journal = journal;
+        options.prepare = prepare;
+        auto started = server::ServerThread::start(std::move(terrain), std::move(options));
+        if (!started) {
+            std::fprintf(stderr, "net_bench: server start: %s\n", started.error().message.c_str());
+            std::exit(2);
+        }
+        thread_ = std::move(*started);
+        call([this] {
+            thread_->server().on_broadcast = [this](std::uint64_t) {
+                queued_peak_ = std::max(queued_peak_, thread_->server().queuedBytes());
             };
-            const Status s = server_->start();
-            if (!s) {
-                std::fprintf(stderr, "net_bench: server start: %s\n", s.error().message.c_str());
-                std::exit(2);
-            }
             return 0;
         });
     }
-    ~ServerThread() { stop(); }
-    void stop() {
-        if (!server_)
-            return;
-        std::promise<void> closed;
-        thread_.call([&] {
-            server_->shutdown([&closed] { closed.set_value(); });
-            return 0;
-        });
-        closed.get_future().wait_for(std::chrono::seconds(5));
-        thread_.call([&] {
-            server_.reset();
-            return 0;
-        });
-        thread_.join();
-    }
-    template <typename F> auto call(F f) -> decltype(f()) { return thread_.call(std::move(f)); }
-    std::uint16_t port() {
-        return call([this] { return server_->port(); });
-    }
-    std::uint64_t seq() {
-        return call([this] { return server_->broadcastSeq(); });
-    }
-    std::uint64_t worldHash() {
-        return call([this] { return authority_->terrain().worldHash(); });
-    }
-    server::ServerStats stats() {
-        return call([this] { return server_->stats(); });
-    }
+    void stop() { thread_->stop(); }
+    template <typename F> auto call(F f) -> decltype(f()) { return thread_->call(std::move(f)); }
+    std::uint16_t port() { return thread_->port(); }
+    std::uint64_t seq() { return thread_->seq(); }
+    std::uint64_t worldHash() { return thread_->worldHash(); }
+    server::ServerStats stats() { return thread_->stats(); }
     std::size_t queuedBytes() {
-        return call([this] { return server_->queuedBytes(); });
+        return call([this] { return thread_->server().queuedBytes(); });
     }
     std::size_t takeQueuedPeak() {
         return call([this] {
@@ -177,14 +156,12 @@ class ServerThread {
         });
     }
     // server thread only
-    server::Authority& authority() { return *authority_; }
-    server::Server& server() { return *server_; }
+    server::Authority& authority() { return thread_->authority(); }
+    server::Server& server() { return thread_->server(); }
 
   private:
-    std::unique_ptr<server::Authority> authority_;
-    std::unique_ptr<server::Server> server_;
-    std::size_t queued_peak_ = 0;
-    IoThread thread_; // last: joined first on destruction
+    std::size_t queued_peak_ = 0; // server thread only
+    std::unique_ptr<server::ServerThread> thread_;
 };
 
 /// Something that receives the op stream: a full client or a light viewer. Lives on (and is only

@@ -166,5 +166,55 @@ TEST(GenesisDelta, everyTruncationAndEveryAlteredByteIsRefused) {
     }
 }
 
+/// A delta for a one-tile world built by hand: `entry` is the tile entry's bytes after the gap.
+std::vector<std::uint8_t> handMade(const Terrain& genesis, const std::vector<std::uint8_t>& entry) {
+    std::vector<std::uint8_t> b = {'T', 'R', 'G', 'D', 1, 0, 0, 0};
+    auto put = [&](std::uint64_t v, int bytes) {
+        for (int k = 0; k < bytes; ++k)
+            b.push_back(static_cast<std::uint8_t>(v >> (8 * k)));
+    };
+    const WorldSpec& s = genesis.spec();
+    for (std::int32_t v : {s.width, s.height, s.spacing, s.units_per_metre, s.patch_tolerance})
+        put(static_cast<std::uint32_t>(v), 4);
+    put(5, 8);                     // seq
+    put(genesis.genesisHash(), 8); // genesis
+    put(1, 4);                     // one entry
+    b.insert(b.end(), entry.begin(), entry.end());
+    put(genesis.worldHash(), 8);
+    put(XXH3_64bits(b.data(), b.size()), 8);
+    return b;
+}
+
+TEST(GenesisDelta, oneEncodingPerWorld) {
+    const Terrain genesis = testing::makeFlat(65, 65);
+    // a record of zero displacements and no patch: the tile equals its genesis
+    std::vector<std::uint8_t> record(kTileVertices * kTileVertices, 0);
+    record.push_back(0); // patch count
+    auto entry = [&](std::vector<std::uint8_t> gap) {
+        std::vector<std::uint8_t> e = std::move(gap);
+        // the record length, 4226, as LEB128
+        e.push_back(static_cast<std::uint8_t>(0x80 | (record.size() & 0x7f)));
+        e.push_back(static_cast<std::uint8_t>(record.size() >> 7));
+        e.insert(e.end(), record.begin(), record.end());
+        return e;
+    };
+    auto plain = decodeGenesisDelta(handMade(genesis, entry({0})), genesis);
+    ASSERT_FALSE(plain.ok());
+    EXPECT_EQ(plain.error().code, ErrorCode::kBadFormat);
+    EXPECT_NE(plain.error().message.find("equals its genesis"), std::string::npos)
+        << plain.error().message;
+    // the same tile number written in two bytes (0x80 0x00) is not its shortest form
+    auto overlong = decodeGenesisDelta(handMade(genesis, entry({0x80, 0x00})), genesis);
+    ASSERT_FALSE(overlong.ok());
+    EXPECT_EQ(overlong.error().code, ErrorCode::kTruncated);
+    EXPECT_NE(overlong.error().message.find("shortest form"), std::string::npos);
+    // with one displaced vertex, the entry is the world's encoding (hash aside)
+    record[0] = 2; // zig(1)
+    auto displaced = decodeGenesisDelta(handMade(genesis, entry({0})), genesis);
+    ASSERT_FALSE(displaced.ok());
+    EXPECT_EQ(displaced.error().code, ErrorCode::kHashMismatch); // not the genesis' world hash
+    EXPECT_NE(displaced.error().message.find("world hash"), std::string::npos);
+}
+
 } // namespace
 } // namespace terrain

@@ -11,6 +11,7 @@
 #include <terrain/server/auth_token.h>
 #include <terrain/server/authority.h>
 #include <terrain/server/server.h>
+#include <terrain/server/server_thread.h>
 #include <terrain/wire/codec.h>
 #include <terrain/wire/framing.h>
 
@@ -36,7 +37,7 @@ inline Terrain smallMap(int size = 257, std::uint64_t seed = 5) {
     return std::move(*makeProceduralMap(o));
 }
 
-/// A server on its own thread. call() runs a function on the server thread and waits for it.
+/// A server on its own thread (server::ServerThread) with the test token secret.
 class TestServer {
   public:
     explicit TestServer(
@@ -45,47 +46,35 @@ class TestServer {
         journal::Journal* journal = nullptr,
         std::uint64_t seq = 0) {
         config.token_secret = testSecret();
-        authority_ =
-            std::make_unique<server::Authority>(std::move(terrain), seq, config.op_log_capacity);
-        const Status s = thread_.call([&] {
-            server_ = std::make_unique<server::Server>(thread_.io(), config, *authority_, journal);
-            return server_->start();
-        });
-        EXPECT_TRUE(s.ok()) << (s ? "" : s.error().message);
+        server::ServerThreadOptions options;
+        options.config = std::move(config);
+        options.seq = seq;
+        options.journal = journal;
+        auto started = server::ServerThread::start(std::move(terrain), std::move(options));
+        EXPECT_TRUE(started.ok()) << (started ? "" : started.error().message);
+        if (started)
+            thread_ = std::move(*started);
     }
     ~TestServer() { stop(); }
 
-    template <typename F> auto call(F f) -> decltype(f()) { return thread_.call(std::move(f)); }
+    template <typename F> auto call(F f) -> decltype(f()) { return thread_->call(std::move(f)); }
 
+    /// Shuts down, gives sessions 50 ms for their goodbye (the test's clients may not be
+    /// reading), then stops the loop.
     void stop() {
-        if (!thread_.running())
-            return;
-        call([this] {
-            server_->shutdown([] {});
-            return 0;
-        });
-        // give sessions their goodbye, then stop the loop
-        std::this_thread::sleep_for(std::chrono::milliseconds(50));
-        thread_.join();
+        if (thread_)
+            thread_->stop(0.05);
     }
 
-    std::uint16_t port() const { return server_->port(); }
-    std::uint64_t seq() {
-        return call([this] { return server_->broadcastSeq(); });
-    }
-    std::uint64_t worldHash() {
-        return call([this] { return authority_->terrain().worldHash(); });
-    }
-    server::ServerStats stats() {
-        return call([this] { return server_->stats(); });
-    }
-    server::Authority& authority() { return *authority_; } // server thread only (call())
-    server::Server& server() { return *server_; }          // server thread only (call())
+    std::uint16_t port() const { return thread_->port(); }
+    std::uint64_t seq() { return thread_->seq(); }
+    std::uint64_t worldHash() { return thread_->worldHash(); }
+    server::ServerStats stats() { return thread_->stats(); }
+    server::Authority& authority() { return thread_->authority(); } // server thread only (call())
+    server::Server& server() { return thread_->server(); }          // server thread only (call())
 
   private:
-    IoThread thread_; // first: outlives the server whose handlers it holds
-    std::unique_ptr<server::Authority> authority_;
-    std::unique_ptr<server::Server> server_;
+    std::unique_ptr<server::ServerThread> thread_;
 };
 
 /// A client: replica + connection on the test thread's io_context.

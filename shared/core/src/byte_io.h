@@ -88,7 +88,8 @@ class ByteReader {
             i32(out[i]);
         return true;
     }
-    /// A LEB128 value of at most 5 bytes that fits 32 bits; false on truncation or overflow.
+    /// A LEB128 value of at most 5 bytes that fits 32 bits, in its shortest form (so every
+    /// value has one encoding); false on truncation, overflow or a longer form.
     bool varU32(std::uint32_t& v) {
         v = 0;
         for (int shift = 0; shift < 35; shift += 7) {
@@ -99,7 +100,7 @@ class ByteReader {
                 return false; // bits beyond 32
             v |= static_cast<std::uint32_t>(b & 0x7f) << shift;
             if ((b & 0x80) == 0)
-                return true;
+                return b != 0 || shift == 0; // a zero last byte: a longer form than needed
         }
         return false;
     }

@@ -19,7 +19,9 @@ constexpr int kLast = bspline::kControls - 1;
 constexpr std::size_t kTileSamples = std::size_t{kTileVertices} * kTileVertices;
 
 Error truncated(const char* what) {
-    return makeError(ErrorCode::kTruncated, std::string("genesis delta truncated in ") + what);
+    return makeError(
+        ErrorCode::kTruncated,
+        std::string("genesis delta truncated (or a number not in its shortest form) in ") + what);
 }
 
 // Catmull-Rom weights at t = a / 6 (a = 0..6), times 432 (2 * 6^3): integers, so the
@@ -409,7 +411,18 @@ decodeGenesisDelta(std::span<const std::uint8_t> bytes, const Terrain& holder) {
         return makeError(
             ErrorCode::kHashMismatch, "genesis delta checksum differs: the bytes are corrupt");
 
+    // one encoding per world: the entries are exactly the tiles that differ from the genesis
+    std::vector<std::uint8_t> in_delta(static_cast<std::size_t>(spec.tileCount()), 0);
+    for (const Pending& p : pending)
+        in_delta[static_cast<std::size_t>(p.tile)] = 1;
     for (std::int32_t tile = 0; tile < spec.tileCount(); ++tile) {
+        if (t.differsFromGenesis(tile) != (in_delta[static_cast<std::size_t>(tile)] != 0))
+            return makeError(
+                ErrorCode::kBadFormat,
+                "tile " + std::to_string(tile) +
+                    (in_delta[static_cast<std::size_t>(tile)] != 0
+                         ? " is in the genesis delta but equals its genesis"
+                         : " differs from its genesis but is not in the genesis delta"));
         t.patch_count_ += t.tiles_[static_cast<std::size_t>(tile)].patches.size();
         t.refreshTile(tile);
     }
