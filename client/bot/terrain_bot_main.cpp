@@ -4,6 +4,8 @@
 //                                                                 every one holds the same world
 
 #include <terrain/bot/bot.h>
+#include <terrain/io/dem_import.h>
+#include <terrain/procedural_map.h>
 
 #include <CLI/CLI.hpp>
 
@@ -40,6 +42,10 @@ int main(int argc, char** argv) {
     std::string report_path;
     std::string backend_name = "osmesa";
     std::vector<std::string> tables;
+    // the map the bot ships with: terrain-server's --seed/--size/--tolerance or --dem
+    std::string map_dem;
+    ProceduralMapOptions map;
+    bool map_procedural = false;
 
     CLI::App* run = app.add_subcommand("run", "fly the script against a server (the default)");
     for (CLI::App* a : {static_cast<CLI::App*>(&app), run}) {
@@ -90,6 +96,18 @@ int main(int argc, char** argv) {
         a->add_option("--join-timeout", config.join_timeout_seconds, "seconds to join the server")
             ->check(CLI::PositiveNumber);
         a->add_option("--report", report_path, "write the JSON report here (default: stdout)");
+        a->add_option(
+            "--map-dem", map_dem,
+            "ship this DEM (the server's --dem): join by genesis delta when it is the server's");
+        a->add_flag(
+            "--map", map_procedural,
+            "ship the procedural map of --map-seed/--map-size/--map-tolerance (the server's "
+            "--seed/--size/--tolerance): join by genesis delta when it is the server's");
+        a->add_option("--map-seed", map.seed, "with --map: the server's --seed");
+        a->add_option("--map-size", map.width, "with --map: the server's --size")
+            ->check(CLI::Range(65, 8193));
+        a->add_option("--map-tolerance", map.patch_tolerance_metres, "with --map: --tolerance")
+            ->check(CLI::Range(1.0 / 1024, 10.0));
     }
     CLI::App* table = app.add_subcommand("table", "compare reports: exit 1 unless all agree");
     table->add_option("reports", tables, "report files")->required()->check(CLI::ExistingFile);
@@ -119,6 +137,26 @@ int main(int argc, char** argv) {
     config.backend = *render::parseOffscreenBackend(backend_name); // checked by CLI11
     if (!config.png_dir.empty())
         config.render = true;
+    if (map_procedural && !map_dem.empty()) {
+        std::fprintf(stderr, "terrain-bot: --map and --map-dem name two maps; give one\n");
+        return 2;
+    }
+    if (map_procedural || !map_dem.empty()) {
+        map.height = map.width;
+        Result<Terrain> genesis = [&]() -> Result<Terrain> {
+            if (map_procedural)
+                return makeProceduralMap(map);
+            Result<io::ImportedDem> dem = io::importDem(map_dem, {});
+            if (!dem)
+                return dem.error();
+            return std::move(dem->terrain);
+        }();
+        if (!genesis) {
+            std::fprintf(stderr, "terrain-bot: map: %s\n", genesis.error().message.c_str());
+            return 2;
+        }
+        config.genesis.emplace(std::move(*genesis));
+    }
     Result<bot::BotReport> report = bot::runBot(config);
     if (!report) {
         std::fprintf(

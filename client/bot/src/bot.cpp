@@ -56,6 +56,9 @@ Result<BotReport> runBot(const BotConfig& config) {
     report.name = config.name;
     asio::io_context io;
     client::Replica replica;
+    if (config.genesis)
+        if (Status s = replica.loadGenesis(*config.genesis); !s)
+            return s.error();
     client::ConnectionConfig cc;
     cc.host = config.host;
     cc.port = config.port;
@@ -257,6 +260,8 @@ Result<BotReport> runBot(const BotConfig& config) {
     report.hash_mismatches = replica.stats().hash_mismatches;
     report.repairs = replica.stats().repairs;
     report.snapshots = replica.stats().snapshots;
+    report.genesis_deltas = connection->stats().genesis_deltas;
+    report.snapshot_bytes = connection->stats().snapshot_bytes;
     report.tessellate_ms = Spread::of(tessellate_ms);
     report.render_ms = Spread::of(render_ms);
     report.frame_ms = Spread::of(frame_ms);

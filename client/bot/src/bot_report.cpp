@@ -56,6 +56,8 @@ std::string toJson(const BotReport& r) {
         {"hash_mismatches", r.hash_mismatches},
         {"repairs", r.repairs},
         {"snapshots", r.snapshots},
+        {"genesis_deltas", r.genesis_deltas},
+        {"snapshot_bytes", r.snapshot_bytes},
         {"craters",
          {{"requested", r.craters_requested},
           {"accepted", r.craters_accepted},
@@ -116,6 +118,8 @@ Result<BotReport> readReport(const std::filesystem::path& path) {
         r.hash_mismatches = j.at("hash_mismatches").get<std::uint64_t>();
         r.repairs = j.at("repairs").get<std::uint64_t>();
         r.snapshots = j.at("snapshots").get<std::uint64_t>();
+        r.genesis_deltas = j.value("genesis_deltas", std::uint64_t{0});
+        r.snapshot_bytes = j.value("snapshot_bytes", std::uint64_t{0});
         const json& c = j.at("craters");
         r.craters_requested = c.at("requested").get<int>();
         r.craters_accepted = c.at("accepted").get<int>();

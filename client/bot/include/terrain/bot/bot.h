@@ -10,9 +10,11 @@
 #include <terrain/client/op_pacing.h>
 #include <terrain/render/offscreen.h>
 #include <terrain/result.h>
+#include <terrain/terrain.h>
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 
 namespace terrain::bot {
@@ -45,6 +47,10 @@ struct BotConfig {
     /// when `peers` such files exist (itself included). Empty: no barrier.
     std::filesystem::path barrier_dir;
     int peers = 1;
+    /// The map this bot ships with (the server's genesis: the same seed and size, or the same
+    /// DEM): it starts from it, resumes from seq 0 while the server holds every op, and joins
+    /// by a genesis delta otherwise. Empty: joins by the whole snapshot.
+    std::optional<Terrain> genesis;
 };
 
 /// llvmpipe at 1280 x 720 on 2 cores spends about 20 ms a frame filling pixels and 0.3 ms per

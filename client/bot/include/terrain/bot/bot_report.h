@@ -33,6 +33,8 @@ struct BotReport {
     std::uint64_t hash_mismatches = 0;
     std::uint64_t repairs = 0;
     std::uint64_t snapshots = 0;
+    std::uint64_t genesis_deltas = 0; ///< of the snapshots, those that came as genesis deltas
+    std::uint64_t snapshot_bytes = 0; ///< compressed bytes of both kinds
     int craters_requested = 0;
     int craters_accepted = 0;
     int craters_refused = 0;
