@@ -3,16 +3,20 @@
 
 #include <zstd.h>
 
+#include <memory>
 #include <string>
 
 namespace terrain::wire {
 
 std::vector<std::uint8_t> compress(std::span<const std::uint8_t> raw, int level) {
-    std::vector<std::uint8_t> out(ZSTD_compressBound(raw.size()));
-    const std::size_t n = ZSTD_compress(out.data(), out.size(), raw.data(), raw.size(), level);
+    // the bound is as large as the input: left uninitialised, only the pages zstd writes are
+    // ever resident, and the result is copied out at its size (a server builds snapshots of
+    // tens of MB and keeps the compressed ones)
+    const std::size_t bound = ZSTD_compressBound(raw.size());
+    const std::unique_ptr<std::uint8_t[]> out(new std::uint8_t[bound]);
+    const std::size_t n = ZSTD_compress(out.get(), bound, raw.data(), raw.size(), level);
     TERRAIN_ASSERT(!ZSTD_isError(n)); // only fails on a too-small output, which Bound prevents
-    out.resize(n);
-    return out;
+    return std::vector<std::uint8_t>(out.get(), out.get() + n);
 }
 
 Result<std::vector<std::uint8_t>> decompress(

@@ -22,9 +22,11 @@ SnapshotFrames chunked(
     const Terrain& terrain,
     std::uint64_t seq,
     std::uint64_t genesis_hash,
-    const std::vector<std::uint8_t>& raw,
+    std::vector<std::uint8_t> raw,
     std::size_t chunk_bytes) {
     const std::vector<std::uint8_t> compressed = compress(raw);
+    const std::size_t raw_size = raw.size();
+    raw = {}; // freed before the frames copy the compressed bytes: a lower peak
     chunk_bytes = std::max<std::size_t>(chunk_bytes, 1);
     const std::size_t chunks = (compressed.size() + chunk_bytes - 1) / chunk_bytes;
 
@@ -32,13 +34,13 @@ SnapshotFrames chunked(
     out.seq = seq;
     out.world_hash = terrain.worldHash();
     out.genesis_hash = genesis_hash;
-    out.raw_bytes = raw.size();
+    out.raw_bytes = raw_size;
     out.compressed_bytes = compressed.size();
     pb::Envelope envelope;
     pb::SnapshotBegin* begin = envelope.mutable_snapshot_begin();
     begin->set_seq(seq);
     begin->set_world_hash(out.world_hash);
-    begin->set_raw_bytes(raw.size());
+    begin->set_raw_bytes(raw_size);
     begin->set_compressed_bytes(compressed.size());
     begin->set_chunk_count(static_cast<std::uint32_t>(chunks));
     begin->set_genesis_hash(genesis_hash);
