@@ -1,7 +1,8 @@
 // battle_feed: sends canonical ops (battle_bench --ops) to a running terrain-server as one
 // deformer, at most --window requests unanswered, and waits until every request is answered and
 // its replica holds the server's last op. For measuring a real server process under a battle
-// (tests/bench/server_memory.sh). Prints accepted, refused, seconds, the final seq and hash.
+// (tests/bench/server_memory.sh, server_commit.sh). Prints accepted, refused, seconds, ops per
+// second, request -> reply latency (median, p99, max), the final seq and hash.
 // Exit status: 0 when every op was answered and the replica verified; 1 otherwise; 2 on input.
 
 #include <terrain/client/connection.h>
@@ -10,9 +11,11 @@
 
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -24,11 +27,14 @@ int main(int argc, char** argv) {
     std::string token;
     std::string ops_path;
     int window = 64;
+    double rate = 0.0;
     app.add_option("--host", host);
     app.add_option("--port", port)->required();
     app.add_option("--token", token, "a deformer token")->required();
     app.add_option("--ops", ops_path, "canonical ops, one per line")->required();
     app.add_option("--window", window, "requests in flight at most")->check(CLI::Range(1, 100000));
+    app.add_option("--rate", rate, "paced: requests per second at most (0: as the window allows)")
+        ->check(CLI::NonNegativeNumber);
     CLI11_PARSE(app, argc, argv);
 
     std::ifstream file(ops_path);
@@ -53,7 +59,16 @@ int main(int argc, char** argv) {
     std::size_t answered = 0;
     std::size_t accepted = 0;
     std::uint64_t last_accepted = 0;
+    std::vector<std::chrono::steady_clock::time_point> sent_at(ops->size());
+    std::vector<double> latency_ms;
+    latency_ms.reserve(ops->size());
     connection->on_deform_reply = [&](const client::DeformAnswer& a) {
+        // request ids count from 1 in the order sent
+        const std::size_t i = a.request_id - 1;
+        if (i < sent_at.size())
+            latency_ms.push_back(std::chrono::duration<double, std::milli>(
+                                     std::chrono::steady_clock::now() - sent_at[i])
+                                     .count());
         ++answered;
         if (a.accepted) {
             ++accepted;
@@ -65,20 +80,43 @@ int main(int argc, char** argv) {
     const auto elapsed = [&] {
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     };
+    std::optional<std::chrono::steady_clock::time_point> paced_from;
     while (elapsed() < 600.0) {
         io.run_for(std::chrono::milliseconds(1));
         if (!connection->synced())
             continue;
-        while (sent < ops->size() && sent - answered < static_cast<std::size_t>(window))
+        if (!paced_from)
+            paced_from = std::chrono::steady_clock::now(); // joined: the pacing starts
+        const auto paced_limit = [&] {
+            const double since =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - *paced_from)
+                    .count();
+            return rate > 0.0 ? static_cast<std::size_t>(since * rate) + 1 : ops->size();
+        };
+        while (sent < ops->size() && sent - answered < static_cast<std::size_t>(window) &&
+               sent < paced_limit()) {
+            sent_at[sent] = std::chrono::steady_clock::now();
             connection->requestDeform((*ops)[sent++]);
+        }
         if (answered == ops->size() && replica.seq() >= last_accepted)
             break;
     }
+    const double seconds = elapsed();
     const bool ok = answered == ops->size() && connection->synced();
+    std::sort(latency_ms.begin(), latency_ms.end());
+    const auto rank = [&](double q) {
+        return latency_ms.empty()
+                   ? 0.0
+                   : latency_ms[std::min(
+                         latency_ms.size() - 1,
+                         static_cast<std::size_t>(q * static_cast<double>(latency_ms.size())))];
+    };
     std::printf(
-        "battle_feed: %zu ops, %zu accepted, %zu refused, %.1f s; replica at seq %llu, hash "
-        "%016llx%s\n",
-        ops->size(), accepted, answered - accepted, elapsed(),
+        "battle_feed: %zu ops, %zu accepted, %zu refused, %.1f s (%.0f ops/s); request -> reply "
+        "p50 %.2f ms, p99 %.2f ms, max %.2f ms; replica at seq %llu, hash %016llx%s\n",
+        ops->size(), accepted, answered - accepted, seconds,
+        static_cast<double>(ops->size()) / seconds, rank(0.5), rank(0.99),
+        latency_ms.empty() ? 0.0 : latency_ms.back(),
         static_cast<unsigned long long>(replica.seq()),
         static_cast<unsigned long long>(replica.worldHash()), ok ? "" : " (INCOMPLETE)");
     connection->stop();

@@ -872,6 +872,11 @@ int main(int argc, char** argv) {
                "--light-ops", light_ops, "deform ops in the windowed fan-out run to light viewers")
             ->check(CLI::Range(1, 1000000));
     app.add_option("--window", window, "outstanding deform requests")->check(CLI::Range(1, 4096));
+    double sync_delay_ms = 0.0;
+    app.add_option(
+           "--sync-delay-ms", sync_delay_ms,
+           "journaled runs: sleep this long before each fdatasync (a slower disk than this one)")
+        ->check(CLI::Range(0.0, 1000.0));
     app.add_option("--client-threads", client_threads, "io threads the clients are spread over")
         ->check(CLI::Range(1, 64));
     app.add_option("--paced-rate", paced_rate, "ops per second of the paced run")
@@ -1010,23 +1015,38 @@ int main(int argc, char** argv) {
     // ----------------
     {
         Json durability_json = Json::object();
-        for (const journal::Durability d :
-             {journal::Durability::kWrite, journal::Durability::kFsync}) {
+        struct JournalRun {
+            journal::Durability d;
+            bool pipelined;
+        };
+        for (const JournalRun run :
+             {JournalRun{journal::Durability::kWrite, true},
+              JournalRun{journal::Durability::kFsync, true},
+              JournalRun{journal::Durability::kFsync, false}}) {
+            const journal::Durability d = run.d;
+            const std::string key =
+                std::string(journal::toString(d)) + (run.pipelined ? "" : "_synchronous");
             const std::filesystem::path dir =
                 std::filesystem::temp_directory_path() /
-                ("net_bench_journal_" + std::string(journal::toString(d)) + "_" +
-                 std::to_string(::getpid()));
+                ("net_bench_journal_" + key + "_" + std::to_string(::getpid()));
             std::filesystem::remove_all(dir);
             Terrain map = std::move(*makeProceduralMap(ProceduralMapOptions{}));
             const WorldSpec spec = map.spec();
-            auto opened = journal::Journal::open(dir, {d, 2});
+            journal::JournalOptions jo{d, 2};
+            if (sync_delay_ms > 0.0) // a slower disk than this one
+                jo.before_sync = [ms = sync_delay_ms] {
+                    std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(ms));
+                };
+            auto opened = journal::Journal::open(dir, jo);
             if (!opened || !opened->initialize(map, 0)) {
                 std::fprintf(stderr, "net_bench: cannot open a journal in %s\n", dir.c_str());
                 failed = true;
                 continue;
             }
             journal::Journal j = std::move(*opened);
-            ServerThread srv(std::move(map), benchConfig(), {}, &j);
+            server::ServerConfig jconfig = benchConfig();
+            jconfig.pipeline_commits = run.pipelined;
+            ServerThread srv(std::move(map), jconfig, {}, &j);
             ClientPool pool(client_threads);
             pool.add(srv.port(), token(300, Role::kDeformer));
             for (int i = 1; i < clients; ++i)
@@ -1036,7 +1056,7 @@ int main(int argc, char** argv) {
                 std::fprintf(stderr, "net_bench: FAIL: journaled run did not join\n");
                 failed = true;
             }
-            const std::string name = std::string("journal ") + journal::toString(d);
+            const std::string name = "journal " + key;
             FanoutResult fan = runDeform(
                 srv, pool, grenadeCraters(spec, light_ops / 2, 21),
                 static_cast<std::size_t>(window), 0.0, 120.0);
@@ -1063,7 +1083,9 @@ int main(int argc, char** argv) {
             one.set("commits", static_cast<std::uint64_t>(j.stats().commits));
             one.set("fsyncs", static_cast<std::uint64_t>(j.stats().fsyncs));
             one.set("records", static_cast<std::uint64_t>(j.stats().records_written));
-            durability_json.set(journal::toString(d), std::move(one));
+            one.set("pipelined_commits", run.pipelined);
+            one.set("sync_delay_ms_added", sync_delay_ms);
+            durability_json.set(key, std::move(one));
             std::filesystem::remove_all(dir);
         }
         root.set("fanout_light_journaled", std::move(durability_json));

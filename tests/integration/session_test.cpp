@@ -3,12 +3,17 @@
 
 #include "support/net_harness.h"
 
+#include <terrain/journal/journal.h>
 #include <terrain/surface_query.h>
+
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
+#include <filesystem>
 #include <map>
 #include <random>
+#include <thread>
 
 namespace terrain::testing {
 namespace {
@@ -600,6 +605,68 @@ TEST(Session, AJoinWaitingForItsSnapshotDelaysNoOtherSession) {
     }));
     EXPECT_EQ(late.connection->stats().disconnects, 0u);
     EXPECT_EQ(srv.stats().snapshots_built, 2u);
+}
+
+TEST(Session, AJournalSyncInProgressDelaysNoReplyAndTheNextGroupQueuesBehindIt) {
+    // the commit pipeline: a group's fdatasync held on the commit thread; meanwhile the io
+    // thread answers queries and accepts more ops (the next group), acknowledging none of them
+    // until the held group is durable; then every op arrives in seq order
+    const std::filesystem::path dir =
+        std::filesystem::temp_directory_path() / ("terrain_pipeline_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir);
+    std::atomic<bool> hold{false};
+    std::atomic<int> syncs{0};
+    journal::JournalOptions options;
+    options.before_sync = [&] {
+        ++syncs;
+        while (hold.load())
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    };
+    auto opened = journal::Journal::open(dir, options);
+    ASSERT_TRUE(opened.ok()) << opened.error().message;
+    journal::Journal j = std::move(*opened);
+    ASSERT_TRUE(j.initialize(smallMap(129), 0).ok());
+    struct Release {
+        std::atomic<bool>& held;
+        ~Release() { held = false; }
+    } release{hold};
+    {
+        TestServer srv(smallMap(129), fastConfig(), &j);
+        asio::io_context io;
+        TestClient deformer(io, srv.port(), token(1, Role::kDeformer));
+        TestClient viewer(io, srv.port(), token(2, Role::kViewer));
+        ASSERT_TRUE(
+            runUntil(io, [&] { return deformer.replica.ready() && viewer.replica.ready(); }));
+        std::vector<std::uint64_t> applied;
+        viewer.connection->on_applied = [&](std::uint64_t seq) { applied.push_back(seq); };
+        std::vector<client::HeightAnswer> heights;
+        viewer.connection->on_height_reply = [&](const client::HeightAnswer& a) {
+            heights.push_back(a);
+        };
+        std::mt19937_64 rng(5);
+        const WorldSpec spec = deformer.replica.terrain().spec();
+        hold = true;
+        deformer.connection->requestDeform(randomCrater(rng, spec));
+        ASSERT_TRUE(runUntil(io, [&] { return syncs.load() == 1; })); // its sync is held
+        for (int i = 0; i < 5; ++i) // the next group, accepted while the first is out
+            deformer.connection->requestDeform(randomCrater(rng, spec));
+        viewer.connection->queryHeight(20.0, 20.0);
+        ASSERT_TRUE(runUntil(io, [&] { return heights.size() == 1; }))
+            << "a query waited for the journal";
+        EXPECT_TRUE(deformer.answers.empty()) << "an op was acknowledged before it was durable";
+        EXPECT_TRUE(applied.empty()) << "an op was broadcast before it was durable";
+        hold = false;
+        ASSERT_TRUE(runUntil(io, [&] { return deformer.answers.size() == 6; }));
+        ASSERT_TRUE(runUntil(io, [&] { return viewer.replica.seq() == 6; }));
+        EXPECT_EQ(applied, (std::vector<std::uint64_t>{1, 2, 3, 4, 5, 6}));
+        EXPECT_EQ(viewer.replica.worldHash(), srv.worldHash());
+        for (std::size_t i = 0; i < 6; ++i)
+            EXPECT_EQ(deformer.answers[i].seq, i + 1);
+        EXPECT_EQ(syncs.load(), 2); // two groups: the held one and the five behind it
+        EXPECT_EQ(srv.stats().commits, 2u);
+        EXPECT_EQ(j.lastSeq(), 6u);
+    }
+    std::filesystem::remove_all(dir);
 }
 
 TEST(Session, HealthRequestAnswersWithoutAToken) {

@@ -278,29 +278,69 @@ void Journal::append(const JournalRecord& record) {
 Status Journal::commit() {
     if (failure_)
         return *failure_;
-    if (pending_records_ == 0)
+    TERRAIN_ASSERT(!batch_out_);
+    std::optional<CommitBatch> batch = takeBatch();
+    if (!batch)
         return Ok{};
-    TERRAIN_ASSERT(ready_);
-    if (auto s = detail::writeAll(files_->segment.get(), pending_bytes_, segment_path_); !s)
-        return fail(s.error());
-    if (options_.durability == Durability::kFsync) {
-        if (auto s = detail::syncData(files_->segment.get(), segment_path_); !s)
-            return fail(s.error());
-        ++stats_.fsyncs;
+    const Status written = writeBatch(*batch);
+    Status s = batchWritten(*batch, written);
+    // the buffer keeps its capacity for the next group
+    if (pending_records_ == 0 && pending_bytes_.capacity() < batch->bytes.capacity()) {
+        batch->bytes.clear();
+        pending_bytes_.swap(batch->bytes);
     }
-    ++stats_.commits;
-    stats_.records_written += pending_records_;
-    stats_.bytes_written += pending_bytes_.size();
-    last_seq_ = appended_seq_;
-    pending_bytes_.clear(); // keeps its capacity for the next group
+    return s;
+}
+
+std::optional<CommitBatch> Journal::takeBatch() {
+    if (failure_ || pending_records_ == 0)
+        return std::nullopt;
+    TERRAIN_ASSERT(ready_ && !batch_out_);
+    CommitBatch batch;
+    batch.bytes.swap(pending_bytes_);
+    batch.records = pending_records_;
+    batch.last_seq = appended_seq_;
+    batch.fd = files_->segment.get();
+    batch.path = segment_path_;
+    batch.sync = options_.durability == Durability::kFsync;
+    batch.before_sync = options_.before_sync;
     pending_records_ = 0;
+    batch_out_ = true;
+    return batch;
+}
+
+Status writeBatch(const CommitBatch& batch) {
+    if (auto s = detail::writeAll(batch.fd, batch.bytes, batch.path); !s)
+        return s;
+    if (batch.sync) {
+        if (batch.before_sync)
+            batch.before_sync();
+        if (auto s = detail::syncData(batch.fd, batch.path); !s)
+            return s;
+    }
+    return Ok{};
+}
+
+Status Journal::batchWritten(const CommitBatch& batch, const Status& written) {
+    TERRAIN_ASSERT(batch_out_);
+    batch_out_ = false;
+    if (failure_)
+        return *failure_;
+    if (!written)
+        return fail(written.error());
+    if (batch.sync)
+        ++stats_.fsyncs;
+    ++stats_.commits;
+    stats_.records_written += batch.records;
+    stats_.bytes_written += batch.bytes.size();
+    last_seq_ = batch.last_seq;
     return Ok{};
 }
 
 Status Journal::closeSegmentAt(const char* caller, std::uint64_t seq) {
     if (failure_)
         return *failure_;
-    TERRAIN_ASSERT(ready_);
+    TERRAIN_ASSERT(ready_ && !batch_out_);
     if (pending_records_ != 0 || seq != last_seq_)
         return makeError(
             ErrorCode::kOutOfRange, std::string(caller) + "(seq " + std::to_string(seq) +

@@ -1,5 +1,5 @@
 #include "session.h"
-#include "snapshot_worker.h"
+#include "worker_thread.h"
 
 #include <terrain/assert.h>
 #include <terrain/server/server.h>
@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <future>
 
 namespace terrain::server {
 namespace pb = wire::pb;
@@ -17,8 +18,9 @@ Server::Server(
       broadcast_seq_(authority.seq()), broadcast_hash_(authority.terrain().worldHash()),
       last_journal_snapshot_seq_(authority.seq()), op_frames_(authority.log().capacity()),
       genesis_hash_(authority.terrain().genesisHash()),
-      snapshot_worker_(std::make_unique<SnapshotWorker>(io, config_.before_snapshot_build)),
-      shutdown_timer_(io), accept_retry_timer_(io) {
+      snapshot_worker_(std::make_unique<WorkerThread>(io, config_.before_snapshot_build, true)),
+      commit_worker_(std::make_unique<WorkerThread>(io, nullptr)), shutdown_timer_(io),
+      accept_retry_timer_(io) {
     // a log restored after a restart: its ops' broadcast frames, so clients resume from them
     const OpLog& log = authority.log();
     for (std::uint64_t seq = log.resumableFrom() + 1; seq <= log.lastSeq(); ++seq) {
@@ -114,6 +116,13 @@ void Server::submit(
     scheduleCommit();
 }
 
+struct Server::CommitInFlight {
+    journal::CommitBatch batch;
+    std::promise<Status> written;
+    std::shared_future<Status> result = written.get_future().share();
+    bool finished = false; ///< io thread: finishCommit() ran (the posted completion then skips)
+};
+
 void Server::scheduleCommit() {
     if (commit_scheduled_)
         return;
@@ -121,8 +130,106 @@ void Server::scheduleCommit() {
     // runs after the handlers that are already ready: they join this group commit
     asio::post(io_, [this] {
         commit_scheduled_ = false;
-        commitPending();
+        startCommit();
     });
+}
+
+void Server::startCommit() {
+    if (pending_.empty() || failed_ || commit_in_flight_)
+        return; // a group is out: these go with the next one, when it is back
+    if (!journal_) {
+        std::vector<PendingOp> ops;
+        ops.swap(pending_);
+        ++stats_.commits;
+        broadcast(ops);
+        return;
+    }
+    if (!config_.pipeline_commits) {
+        commitPending(); // this thread writes and syncs the group
+        return;
+    }
+    std::optional<journal::CommitBatch> batch = journal_->takeBatch();
+    if (!batch) { // pending ops and no record to take: the journal failed earlier
+        failJournal(journal_->failure() ? journal_->failure()->message : "no records to commit");
+        return;
+    }
+    auto flight = std::make_shared<CommitInFlight>();
+    flight->batch = std::move(*batch);
+    commit_in_flight_ = flight;
+    committing_.swap(pending_);
+    commit_worker_->submit([this, flight]() -> std::function<void()> {
+        flight->written.set_value(journal::writeBatch(flight->batch));
+        return [this, flight] { finishCommit(flight, true); };
+    });
+}
+
+void Server::finishCommit(const std::shared_ptr<CommitInFlight>& flight, bool go_on) {
+    if (flight->finished)
+        return; // commitPending() finished it while it waited
+    flight->finished = true;
+    commit_in_flight_.reset();
+    if (Status s = journal_->batchWritten(flight->batch, flight->result.get()); !s) {
+        // applied but not durable: this state must never be acknowledged or broadcast
+        failJournal(s.error().message);
+        return;
+    }
+    ++stats_.commits;
+    std::vector<PendingOp> ops;
+    ops.swap(committing_);
+    broadcast(ops);
+    if (go_on)
+        startCommit();
+}
+
+void Server::commitPending() {
+    while (!failed_ && (commit_in_flight_ || !pending_.empty())) {
+        if (commit_in_flight_) {
+            const std::shared_ptr<CommitInFlight> flight = commit_in_flight_;
+            flight->result.wait(); // the io thread waits for one write + fdatasync
+            finishCommit(flight, false);
+            continue;
+        }
+        if (!journal_) {
+            startCommit(); // broadcasts at once
+            continue;
+        }
+        // the rest on this thread
+        std::optional<journal::CommitBatch> batch = journal_->takeBatch();
+        if (!batch) {
+            failJournal(
+                journal_->failure() ? journal_->failure()->message : "no records to commit");
+            return;
+        }
+        auto flight = std::make_shared<CommitInFlight>();
+        flight->batch = std::move(*batch);
+        flight->written.set_value(journal::writeBatch(flight->batch));
+        commit_in_flight_ = flight;
+        committing_.swap(pending_);
+        finishCommit(flight, false);
+    }
+}
+
+void Server::failJournal(const std::string& why) {
+    fail("journal commit failed: " + why);
+    for (const auto& session : sessions_)
+        session->close(pb::REASON_UNAVAILABLE, "the server's journal failed");
+    committing_.clear();
+    pending_.clear();
+}
+
+void Server::maybeWriteJournalSnapshot() {
+    const auto due = [this] {
+        return journal_ && !failed_ && config_.journal_snapshot_every > 0 &&
+               !journal_snapshot_in_flight_ &&
+               broadcast_seq_ - last_journal_snapshot_seq_ >= config_.journal_snapshot_every;
+    };
+    if (!due())
+        return;
+    // the snapshot starts a segment after broadcast_seq_: every op before that durable first
+    // (this may broadcast more, and write the snapshot from there)
+    commitPending();
+    if (due())
+        writeJournalSnapshot();
 }
 
 void Server::fail(const std::string& why) {
@@ -137,23 +244,8 @@ void Server::fail(const std::string& why) {
     std::fflush(stdout);
 }
 
-void Server::commitPending() {
-    if (pending_.empty() || failed_)
-        return;
-    if (journal_) {
-        if (Status s = journal_->commit(); !s) {
-            // applied but not durable: this state must never be acknowledged or broadcast
-            fail("journal commit failed: " + s.error().message);
-            for (const auto& session : sessions_)
-                session->close(pb::REASON_UNAVAILABLE, "the server's journal failed");
-            pending_.clear();
-            return;
-        }
-    }
-    ++stats_.commits;
-    std::vector<PendingOp> batch;
-    batch.swap(pending_);
-    for (PendingOp& p : batch) {
+void Server::broadcast(std::vector<PendingOp>& ops) {
+    for (PendingOp& p : ops) {
         const Accepted& a = p.accepted;
         pb::Envelope envelope;
         wire::opToWire(a.op, a.seq, a.world_hash, *envelope.mutable_op_applied());
@@ -170,9 +262,9 @@ void Server::commitPending() {
             requester->sendControl(reply);
         }
     }
-    if (journal_ && config_.journal_snapshot_every > 0 && !journal_snapshot_in_flight_ &&
-        broadcast_seq_ - last_journal_snapshot_seq_ >= config_.journal_snapshot_every)
-        writeJournalSnapshot();
+    maybeWriteJournalSnapshot();
+    if (failed_)
+        return;
     // keep the join snapshots warm once joins have asked for them: rebuilt off the io thread
     // before they age out, so a join finds a usable one instead of waiting for a build
     for (const JoinSnapshot& cached : join_snapshots_)
@@ -212,9 +304,9 @@ void Server::buildSnapshot() {
     // a snapshot holds durable ops only: commit what is pending first (inside a broadcast loop
     // nothing is: the batch was committed before it)
     commitPending();
-    if (failed_)
-        return;
-    TERRAIN_ASSERT(pending_.empty());
+    if (failed_ || join_build_in_flight_)
+        return; // failed, or the commit's broadcast started a build
+    TERRAIN_ASSERT(pending_.empty() && !commit_in_flight_);
     join_build_in_flight_ = true;
     // the copy is the io thread's whole share of the work
     auto terrain = std::make_shared<const Terrain>(authority_.terrain());

@@ -13,6 +13,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -45,6 +46,9 @@ struct JournalOptions {
     /// too, so that recover(retain_records) finds them after a clean stop (the server passes
     /// its retained log's capacity).
     std::size_t history_records = 0;
+    /// Tests and benchmarks: runs before each group commit's fdatasync (on the thread that
+    /// syncs), to hold a commit or to stand for a slower disk.
+    std::function<void()> before_sync = nullptr;
 };
 
 /// The last durable ops before a recovered state, for a server's retained log: a client a few
@@ -74,6 +78,22 @@ struct JournalStats {
     std::uint64_t fsyncs = 0;        ///< fdatasync calls made by commit()
     std::uint64_t snapshots_written = 0;
 };
+
+/// A group of records taken out of a Journal by takeBatch(), to be written and synced on another
+/// thread (writeBatch()) while the journal's owner goes on appending the next group.
+struct CommitBatch {
+    std::vector<std::uint8_t> bytes;
+    std::size_t records = 0;
+    std::uint64_t last_seq = 0;
+    int fd = -1;                ///< the current segment's descriptor (the Journal owns it)
+    std::filesystem::path path; ///< the segment, for error messages
+    bool sync = true;           ///< fdatasync after the write (Durability::kFsync)
+    std::function<void()> before_sync = nullptr; ///< JournalOptions::before_sync
+};
+
+/// write() of a batch (retried for EINTR and short writes), then fdatasync() when it asks for
+/// one. Touches no Journal: safe on another thread, one batch at a time. Errors: kIo.
+Status writeBatch(const CommitBatch& batch);
 
 /// A journal directory opened for writing: either initialize() a new one or recover() an
 /// existing one, then append() + commit() accepted ops and writeSnapshot() now and then.
@@ -132,6 +152,17 @@ class Journal {
     /// same error, and the server must stop; the next start recovers what reached the disk.
     Status commit();
 
+    /// commit() in three steps, for a server that syncs on another thread (a commit pipeline):
+    /// takeBatch() moves every pending record into a batch (nullopt when none, or when the
+    /// journal failed); writeBatch(batch) runs anywhere; batchWritten(batch, status) back on
+    /// the journal's thread makes its records committed (lastSeq() moves to the batch's last
+    /// seq), or, for an error, fails the journal like commit(). Records appended meanwhile go
+    /// to the next batch. At most one batch may be out at a time, and none across
+    /// writeSnapshot(), beginSnapshot() or commit().
+    std::optional<CommitBatch> takeBatch();
+    Status batchWritten(const CommitBatch& batch, const Status& written);
+    /// True between takeBatch() and batchWritten().
+    bool batchOut() const { return batch_out_; }
     /// Writes snapshot-<seq> atomically (temp file, fdatasync, rename, fsync of the directory),
     /// then starts segment journal-<seq + 1>, then deletes all but the newest keep_snapshots
     /// snapshots and every segment holding only records older than the oldest kept snapshot
@@ -199,6 +230,7 @@ class Journal {
     std::uint64_t appended_seq_ = 0; // last appended (== last_seq_ when nothing is pending)
     std::vector<std::uint8_t> pending_bytes_;
     std::size_t pending_records_ = 0;
+    bool batch_out_ = false;
     JournalStats stats_;
 };
 

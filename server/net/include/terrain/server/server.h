@@ -23,7 +23,7 @@
 namespace terrain::server {
 
 class Session;
-class SnapshotWorker;
+class WorkerThread;
 
 struct ServerConfig {
     std::string bind_address = "127.0.0.1";
@@ -52,6 +52,9 @@ struct ServerConfig {
     std::size_t snapshot_chunk_bytes = wire::kDefaultSnapshotChunkBytes;
     /// The cached join snapshot is rebuilt once it is this many ops behind (joins replay the rest).
     std::uint64_t snapshot_cache_max_lag = 2000;
+    /// Group commits on the commit thread, the io thread going on meanwhile (the pipeline);
+    /// false: the io thread writes and syncs each group itself (the old way, for comparison).
+    bool pipeline_commits = true;
     /// The journal writes a snapshot every this many ops (0: only on shutdown).
     std::uint64_t journal_snapshot_every = 20000;
     std::vector<std::uint8_t> token_secret;
@@ -136,10 +139,28 @@ class Server {
         const std::shared_ptr<Session>& session,
         std::uint32_t request_id,
         Result<Accepted> accepted);
+    /// Starts a commit of the pending ops once the handlers already ready have run (they join
+    /// this group).
     void scheduleCommit();
-    /// Journal commit of every pending op, then broadcast + acknowledgement, in seq order.
+    /// The commit pipeline: the pending ops' journal records go to the commit thread (write +
+    /// fdatasync) as one group while the io thread goes on accepting the next; once durable,
+    /// finishCommit() broadcasts and acknowledges them in seq order, then starts the next group.
+    /// Without a journal the group is broadcast at once.
+    void startCommit();
+    struct CommitInFlight;
+    /// Io thread. With `go_on`, starts the next group when ops are pending.
+    void finishCommit(const std::shared_ptr<CommitInFlight>& flight, bool go_on);
+    /// Broadcast + acknowledgement of durable ops, in seq order; then the periodic snapshots.
+    void broadcast(std::vector<PendingOp>& ops);
+    /// Synchronous: every accepted op durable and broadcast when it returns (or the server
+    /// failed). Joins, repairs, snapshot builds and shutdown need a state with no op that is not
+    /// durable; waits for the group on the commit thread, then commits the rest on this one.
     void commitPending();
     void fail(const std::string& why);
+    /// fail(), and every session closed, for a journal that could not make ops durable.
+    void failJournal(const std::string& why);
+    /// The journal's periodic snapshot when it is due (every op before it made durable first).
+    void maybeWriteJournalSnapshot();
     /// The cached join snapshot if a session may start from it now: its successors are all
     /// retained, it is not too far behind, and the ops after it fit well inside a session's
     /// budget (a join must not start as a slow consumer); else nullptr.
@@ -167,7 +188,9 @@ class Server {
     asio::ip::tcp::acceptor acceptor_;
     std::uint16_t port_ = 0;
     std::vector<std::shared_ptr<Session>> sessions_;
-    std::vector<PendingOp> pending_;
+    std::vector<PendingOp> pending_;    ///< accepted, journaled in memory, not in a group yet
+    std::vector<PendingOp> committing_; ///< the group on the commit thread
+    std::shared_ptr<CommitInFlight> commit_in_flight_;
     bool commit_scheduled_ = false;
     std::uint64_t broadcast_seq_ = 0;
     std::uint64_t broadcast_hash_ = 0; ///< after op broadcast_seq_
@@ -175,7 +198,8 @@ class Server {
     std::vector<wire::Frame> op_frames_; // ring parallel to the authority's op log
     std::uint64_t genesis_hash_ = 0;
     std::array<JoinSnapshot, kSnapshotKinds> join_snapshots_;
-    std::unique_ptr<SnapshotWorker> snapshot_worker_;
+    std::unique_ptr<WorkerThread> snapshot_worker_;
+    std::unique_ptr<WorkerThread> commit_worker_;
     bool join_build_in_flight_ = false;
     bool journal_snapshot_in_flight_ = false;
     void scheduleAccept();

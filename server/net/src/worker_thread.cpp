@@ -1,4 +1,4 @@
-#include "snapshot_worker.h"
+#include "worker_thread.h"
 
 #include <utility>
 
@@ -8,10 +8,12 @@
 
 namespace terrain::server {
 
-SnapshotWorker::SnapshotWorker(asio::io_context& io, std::function<void()> before_each)
-    : io_(io), before_each_(std::move(before_each)), thread_([this] { run(); }) {}
+WorkerThread::WorkerThread(
+    asio::io_context& io, std::function<void()> before_each, bool trim_after_each)
+    : io_(io), before_each_(std::move(before_each)), trim_after_each_(trim_after_each),
+      thread_([this] { run(); }) {}
 
-SnapshotWorker::~SnapshotWorker() {
+WorkerThread::~WorkerThread() {
     alive_.reset();
     {
         const std::lock_guard<std::mutex> lock(mutex_);
@@ -22,7 +24,7 @@ SnapshotWorker::~SnapshotWorker() {
     thread_.join();
 }
 
-void SnapshotWorker::submit(Job job) {
+void WorkerThread::submit(Job job) {
     {
         const std::lock_guard<std::mutex> lock(mutex_);
         jobs_.push_back(std::move(job));
@@ -30,7 +32,7 @@ void SnapshotWorker::submit(Job job) {
     wake_.notify_one();
 }
 
-void SnapshotWorker::run() {
+void WorkerThread::run() {
     for (;;) {
         Job job;
         {
@@ -50,10 +52,11 @@ void SnapshotWorker::run() {
                 done();
         });
 #ifdef __GLIBC__
-        // a job's buffers (a terrain copy, the raw and compressed snapshot) are tens of MB that
-        // glibc keeps in this thread's arena once freed; a server holds its resident set to what
-        // it uses between builds only if they go back to the system
-        malloc_trim(0);
+        // a snapshot job's buffers (a terrain copy, the raw and compressed snapshot) are tens of
+        // MB that glibc keeps in this thread's arena once freed; a server holds its resident set
+        // to what it uses between builds only if they go back to the system
+        if (trim_after_each_)
+            malloc_trim(0);
 #endif
     }
 }

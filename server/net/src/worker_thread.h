@@ -1,11 +1,11 @@
 #pragma once
 
-// Builds and writes snapshots on a thread of its own: join snapshots (encode, compress, chunk:
-// tens to hundreds of milliseconds on a grown world) and the journal's snapshot files (encode,
-// write, fsync), so that neither stalls the io thread that carries every session's ops. The io
-// thread hands over a copy of the terrain (a memory copy, far cheaper than the encoding); a job
-// returns what the io thread runs once it is done, posted to its io_context. Jobs run one at a
-// time, in order. Private to terrain_server_net.
+// Work the io thread hands off so that it never stalls the sessions it carries, on a thread of
+// its own: the server has two, one for snapshots (join snapshots: encode, compress, chunk, tens
+// to hundreds of milliseconds on a grown world; the journal's snapshot files: encode, write,
+// fsync), one for the journal's group commits (write + fdatasync). A job returns what the io
+// thread runs once it is done, posted to its io_context. Jobs run one at a time, in order.
+// Private to terrain_server_net.
 
 #include <asio.hpp>
 #include <condition_variable>
@@ -17,18 +17,21 @@
 
 namespace terrain::server {
 
-class SnapshotWorker {
+class WorkerThread {
   public:
     /// Runs on the worker's thread; returns what the io thread runs afterwards.
     using Job = std::function<std::function<void()>()>;
 
-    /// `before_each` (may be empty) runs on the worker's thread before each job (tests).
-    SnapshotWorker(asio::io_context& io, std::function<void()> before_each);
+    /// `before_each` (may be empty) runs on the worker's thread before each job (tests). With
+    /// `trim_after_each`, each job's freed memory goes back to the system (glibc's malloc_trim):
+    /// for jobs of tens of MB, not for frequent small ones.
+    WorkerThread(
+        asio::io_context& io, std::function<void()> before_each, bool trim_after_each = false);
     /// Stops the thread after the job in progress; jobs not started, and completions not yet
     /// run, are dropped.
-    ~SnapshotWorker();
-    SnapshotWorker(const SnapshotWorker&) = delete;
-    SnapshotWorker& operator=(const SnapshotWorker&) = delete;
+    ~WorkerThread();
+    WorkerThread(const WorkerThread&) = delete;
+    WorkerThread& operator=(const WorkerThread&) = delete;
 
     /// Io thread: queues `job`.
     void submit(Job job);
@@ -38,6 +41,7 @@ class SnapshotWorker {
 
     asio::io_context& io_;
     std::function<void()> before_each_;
+    bool trim_after_each_;
     /// Completions hold a weak reference and do nothing once it is gone (io thread only).
     std::shared_ptr<bool> alive_ = std::make_shared<bool>(true);
     const std::weak_ptr<bool> alive_weak_ = alive_; ///< what the worker copies (never written)
