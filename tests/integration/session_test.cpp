@@ -629,9 +629,11 @@ TEST(Session, AJournalSyncInProgressDelaysNoReplyAndTheNextGroupQueuesBehindIt) 
     struct Release {
         std::atomic<bool>& held;
         ~Release() { held = false; }
-    } release{hold};
+    };
     {
         TestServer srv(smallMap(129), fastConfig(), &j);
+        // after srv: a failed assertion releases the sync before srv waits for its threads
+        Release release{hold};
         asio::io_context io;
         TestClient deformer(io, srv.port(), token(1, Role::kDeformer));
         TestClient viewer(io, srv.port(), token(2, Role::kViewer));
