@@ -46,6 +46,8 @@ struct Options {
     std::size_t op_log = 8192;
     double deform_rate = 30.0;
     std::uint64_t snapshot_every = 20000;
+    bool batch_broadcasts = false;
+    bool batch_hash_per_op = false;
     std::string port_file;
     // token
     std::uint64_t player = 0;
@@ -181,6 +183,8 @@ int serve(const Options& o) {
     config.deform_rate_per_second = o.deform_rate;
     config.deform_burst = 2 * o.deform_rate;
     config.journal_snapshot_every = o.snapshot_every;
+    config.batch_broadcasts = o.batch_broadcasts;
+    config.batch_hash_per_op = o.batch_hash_per_op;
     config.token_secret = *secret;
 
     asio::io_context io(1);
@@ -381,6 +385,17 @@ int main(int argc, char** argv) {
     serve_cmd->add_option("--deform-rate", o.deform_rate, "deform requests per second per session")
         ->envname("TERRAIN_DEFORM_RATE")
         ->check(CLI::Range(0.1, 100000.0));
+    serve_cmd
+        ->add_flag(
+            "--batch-broadcasts", o.batch_broadcasts,
+            "tick batching: the ops of one group commit go out as one OpBatch frame, with the "
+            "world hash after the last (about 15 bytes a crater in a burst)")
+        ->envname("TERRAIN_BATCH_BROADCASTS");
+    serve_cmd
+        ->add_flag(
+            "--batch-hash-per-op", o.batch_hash_per_op,
+            "with --batch-broadcasts: every op's world hash too (8 bytes an op)")
+        ->envname("TERRAIN_BATCH_HASH_PER_OP");
     serve_cmd->add_option("--snapshot-every", o.snapshot_every, "journal snapshot every N ops")
         ->envname("TERRAIN_SNAPSHOT_EVERY");
     serve_cmd->add_option("--port-file", o.port_file, "write the bound port to this file");

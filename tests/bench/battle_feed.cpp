@@ -113,10 +113,15 @@ int main(int argc, char** argv) {
     };
     std::printf(
         "battle_feed: %zu ops, %zu accepted, %zu refused, %.1f s (%.0f ops/s); request -> reply "
-        "p50 %.2f ms, p99 %.2f ms, max %.2f ms; replica at seq %llu, hash %016llx%s\n",
+        "p50 %.2f ms, p99 %.2f ms, max %.2f ms; broadcasts %.1f bytes an op (%llu batches); "
+        "replica at seq %llu, hash %016llx%s\n",
         ops->size(), accepted, answered - accepted, seconds,
         static_cast<double>(ops->size()) / seconds, rank(0.5), rank(0.99),
         latency_ms.empty() ? 0.0 : latency_ms.back(),
+        accepted > 0
+            ? static_cast<double>(connection->stats().op_bytes_in) / static_cast<double>(accepted)
+            : 0.0,
+        static_cast<unsigned long long>(connection->stats().op_batches),
         static_cast<unsigned long long>(replica.seq()),
         static_cast<unsigned long long>(replica.worldHash()), ok ? "" : " (INCOMPLETE)");
     connection->stop();

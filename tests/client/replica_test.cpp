@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 namespace terrain::client {
 namespace {
 
@@ -95,6 +97,37 @@ TEST(Replica, DivergenceIsDetectedAndRepairedFromTileState) {
     // tile state for another seq is refused
     EXPECT_EQ(
         r.applyRepair(7, server.worldHash(), {}, hashes).error().code, ErrorCode::kOutOfRange);
+}
+
+TEST(Replica, OpsInABatchAreCheckedByTheHashAfterItsLastOp) {
+    // a batch carries one hash, after its last op: a replica that went wrong on an earlier op
+    // finds out there, and suspects the tiles of every op since the last check
+    Terrain server = map();
+    Replica r;
+    r.loadSnapshot(snapshotOf(server, 0));
+    const DeformOp a = crater(20, 20, server.spec());   // tile 0
+    const DeformOp b = crater(170, 100, server.spec()); // tile 5
+    ASSERT_TRUE(server.apply(a).ok());
+    ASSERT_TRUE(server.apply(b).ok());
+    EXPECT_EQ(*r.applyOp(1, a, std::nullopt), Replica::OpOutcome::kApplied);
+    EXPECT_EQ(r.verifiedSeq(), 0u) << "an unchecked op is not verified";
+    EXPECT_EQ(*r.applyOp(2, b, server.worldHash()), Replica::OpOutcome::kApplied);
+    EXPECT_EQ(r.verifiedSeq(), 2u);
+
+    // the same two ops on a replica whose first op came out wrong (a corrupted tile 0)
+    Replica bad;
+    Terrain start = map();
+    bad.loadSnapshot(snapshotOf(start, 0));
+    ASSERT_TRUE(bad.terrainForTesting().apply(crater(30, 30, start.spec())).ok());
+    EXPECT_EQ(*bad.applyOp(1, a, std::nullopt), Replica::OpOutcome::kApplied);
+    EXPECT_EQ(*bad.applyOp(2, b, server.worldHash()), Replica::OpOutcome::kDiverged);
+    const std::vector<std::int32_t> suspects = bad.suspectTiles();
+    const auto has = [&](std::int32_t t) {
+        return std::find(suspects.begin(), suspects.end(), t) != suspects.end();
+    };
+    EXPECT_TRUE(has(0)) << "the unchecked op's tile";
+    EXPECT_TRUE(has(5)) << "the checked op's tile";
+    EXPECT_EQ(bad.verifiedSeq(), 0u);
 }
 
 } // namespace

@@ -13,6 +13,7 @@
 #include <terrain/terrain.h>
 #include <terrain/wire/codec.h>
 #include <terrain/wire/framing.h>
+#include <terrain/wire/op_batch.h>
 #include <terrain/wire/snapshot_stream.h>
 
 #include <algorithm>
@@ -261,6 +262,20 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                 auto op = wire::opFromWire(envelope->op_applied());
                 if (op)
                     applyOp(t, *op);
+                break;
+            }
+            case pb::Envelope::kOpBatch: {
+                // a batch: every op through the same range checks and apply; a packed op
+                // re-packs to the same bytes
+                auto ops = wire::batchFromWire(envelope->op_batch(), 0);
+                if (!ops)
+                    break;
+                std::vector<DeformOp> plain;
+                for (const wire::BatchedOp& b : *ops) {
+                    plain.push_back(b.op);
+                    applyOp(t, b.op);
+                }
+                check(wire::packOps(plain) == envelope->op_batch().ops());
                 break;
             }
             case pb::Envelope::kSnapshotBegin:

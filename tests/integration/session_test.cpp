@@ -671,6 +671,62 @@ TEST(Session, AJournalSyncInProgressDelaysNoReplyAndTheNextGroupQueuesBehindIt) 
     std::filesystem::remove_all(dir);
 }
 
+void batchedBurst(bool hash_per_op) {
+    server::ServerConfig config = fastConfig();
+    config.batch_broadcasts = true;
+    config.batch_hash_per_op = hash_per_op;
+    TestServer srv(smallMap(), config);
+    asio::io_context io;
+    TestClient deformer(io, srv.port(), token(1, Role::kDeformer));
+    TestClient viewer(io, srv.port(), token(2, Role::kViewer));
+    client::OpPacing paced;
+    paced.ops_per_frame = 3;
+    TestClient slow(io, srv.port(), token(3, Role::kViewer), true, paced);
+    ASSERT_TRUE(runUntil(io, [&] {
+        return deformer.replica.ready() && viewer.replica.ready() && slow.replica.ready();
+    }));
+    std::mt19937_64 rng(9);
+    const WorldSpec spec = deformer.replica.terrain().spec();
+    for (int i = 0; i < 60; ++i) // one write: a burst the server commits in one or few groups
+        deformer.connection->requestDeform(randomCrater(rng, spec));
+    ASSERT_TRUE(runUntil(io, [&] {
+        slow.connection->applyArrived(); // a frame loop: a few ops a frame
+        return deformer.answers.size() == 60 && viewer.replica.seq() == srv.seq() &&
+               slow.replica.seq() == srv.seq();
+    }));
+    const std::uint64_t hash = srv.worldHash();
+    for (TestClient* c : {&deformer, &viewer, &slow}) {
+        EXPECT_EQ(c->replica.worldHash(), hash);
+        EXPECT_EQ(c->replica.verifiedSeq(), srv.seq()) << "the last op of the last batch checked";
+        EXPECT_EQ(c->replica.stats().hash_mismatches, 0u);
+        EXPECT_GT(c->connection->stats().op_batches, 0u);
+    }
+    // accepted requests are answered in seq order (some random craters are refused: too deep)
+    std::uint64_t last = 0;
+    for (const client::DeformAnswer& a : deformer.answers) {
+        if (!a.accepted)
+            continue;
+        EXPECT_EQ(a.seq, last + 1);
+        last = a.seq;
+    }
+    EXPECT_EQ(last, srv.seq());
+    const double per_op = static_cast<double>(viewer.connection->stats().op_bytes_in) /
+                          static_cast<double>(srv.seq());
+    // an OpApplied is about 30 bytes; batched, the hash and framing are shared
+    if (hash_per_op)
+        EXPECT_LT(per_op, 30.0);
+    else
+        EXPECT_LT(per_op, 20.0);
+}
+
+TEST(Session, ABurstGoesOutInBatchesAndEveryClientConverges) {
+    batchedBurst(false);
+}
+
+TEST(Session, BatchesWithEveryOpsHashConvergeToo) {
+    batchedBurst(true);
+}
+
 TEST(Session, HealthRequestAnswersWithoutAToken) {
     TestServer srv(smallMap(129), fastConfig());
     RawPeer peer(srv.port());

@@ -6,6 +6,7 @@
 #include <terrain/wire/codec.h>
 #include <terrain/wire/compression.h>
 #include <terrain/wire/framing.h>
+#include <terrain/wire/op_batch.h>
 #include <terrain/wire/snapshot_stream.h>
 
 #include <gtest/gtest.h>
@@ -262,6 +263,62 @@ TEST(SnapshotStream, AGenesisDeltaNeedsTheGenesisItWasMadeOn) {
     auto again = assemble(&other);
     ASSERT_TRUE(again.ok()) << again.error().message;
     EXPECT_EQ(again->terrain.worldHash(), t.worldHash());
+}
+
+TEST(OpBatch, PacksOpsWithoutTagsAndRefusesWhatIsMalformed) {
+    const Terrain t = craterMapGenesis();
+    std::vector<DeformOp> ops;
+    std::vector<std::uint64_t> hashes;
+    for (int i = 0; i < 20; ++i) {
+        const OpKind kind = static_cast<OpKind>(1 + i % 4);
+        OpRequest r{
+            kind,
+            10.0 + 7.0 * i,
+            20.0 + 5.0 * i,
+            1.5 + 0.2 * i,
+            kind == OpKind::kFlatten  ? 30.0
+            : kind == OpKind::kSmooth ? 0.0
+                                      : 0.5 + 0.1 * i,
+            kind == OpKind::kRaise ? 1.0 : 0.3};
+        auto op = quantizeOp(r, t.spec());
+        ASSERT_TRUE(op.ok()) << op.error().message;
+        ops.push_back(*op);
+        hashes.push_back(1000u + static_cast<std::uint64_t>(i));
+    }
+    pb::OpBatch batch;
+    batchToWire(ops, 17, hashes, false, batch);
+    // no tags, no hash per op: a battle-sized op in about 14 bytes
+    EXPECT_LT(batch.ops().size(), ops.size() * 16);
+    auto back = batchFromWire(batch, 16);
+    ASSERT_TRUE(back.ok()) << back.error().message;
+    ASSERT_EQ(back->size(), ops.size());
+    for (std::size_t i = 0; i < ops.size(); ++i) {
+        EXPECT_EQ((*back)[i].op, ops[i]);
+        EXPECT_EQ((*back)[i].seq, 17 + i);
+        EXPECT_EQ((*back)[i].world_hash.has_value(), i + 1 == ops.size());
+    }
+    EXPECT_EQ(*back->back().world_hash, hashes.back());
+    // with every op's hash, and with the first seq implicit
+    pb::OpBatch each;
+    batchToWire(ops, 0, hashes, true, each);
+    auto implicit = batchFromWire(each, 40);
+    ASSERT_TRUE(implicit.ok());
+    EXPECT_EQ(implicit->front().seq, 41u);
+    EXPECT_EQ(*(*implicit)[3].world_hash, hashes[3]);
+    // refused: hashes for another count of ops, a truncated op, a number in a longer form
+    each.mutable_op_hashes()->RemoveLast();
+    EXPECT_EQ(batchFromWire(each, 40).error().code, ErrorCode::kBadFormat);
+    pb::OpBatch cut = batch;
+    cut.mutable_ops()->pop_back();
+    EXPECT_EQ(batchFromWire(cut, 16).error().code, ErrorCode::kBadFormat);
+    pb::OpBatch longer;
+    longer.set_ops(std::string("\x80\x00\x01\x01\x01\x00\x00", 7)); // kind 0 in two bytes
+    EXPECT_EQ(batchFromWire(longer, 0).error().code, ErrorCode::kBadFormat);
+    pb::OpBatch empty;
+    EXPECT_EQ(batchFromWire(empty, 0).error().code, ErrorCode::kBadFormat);
+    pb::OpBatch bad_kind;
+    bad_kind.set_ops(std::string("\x09\x01\x01\x01\x00\x00", 6));
+    EXPECT_FALSE(batchFromWire(bad_kind, 0).ok());
 }
 
 TEST(TileBlob, RoundTripsAndRefusesDisorder) {

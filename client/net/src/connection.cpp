@@ -1,4 +1,5 @@
 #include <terrain/client/connection.h>
+#include <terrain/wire/op_batch.h>
 
 #include <algorithm>
 #include <chrono>
@@ -139,6 +140,8 @@ void Connection::readMore() {
                 }
                 if (envelope->has_op_applied())
                     self->onOpApplied(envelope->op_applied(), frame_bytes);
+                else if (envelope->has_op_batch())
+                    self->onOpBatch(envelope->op_batch(), frame_bytes);
                 else
                     self->handle(*envelope);
                 if (gen != self->generation_)
@@ -291,7 +294,31 @@ void Connection::onOpApplied(const pb::OpApplied& op, std::size_t frame_bytes) {
     applyOne(seq, *decoded, op.world_hash());
 }
 
-void Connection::applyOne(std::uint64_t seq, const DeformOp& op, std::uint64_t world_hash) {
+void Connection::onOpBatch(const pb::OpBatch& batch, std::size_t frame_bytes) {
+    stats_.op_bytes_in += frame_bytes;
+    ++stats_.op_batches;
+    if (awaiting_snapshot_ || assembler_.active() || !replica_.ready())
+        return; // superseded by the snapshot on its way
+    Result<std::vector<wire::BatchedOp>> ops =
+        wire::batchFromWire(batch, inbox_.empty() ? replica_.seq() : inbox_.back().seq);
+    if (!ops) {
+        lost("bad op batch from the server: " + ops.error().message, false);
+        return;
+    }
+    const std::uint64_t gen = generation_;
+    for (const wire::BatchedOp& b : *ops) {
+        if (config_.pacing.paced()) {
+            inbox_.push_back({b.seq, b.op, b.world_hash});
+            continue;
+        }
+        applyOne(b.seq, b.op, b.world_hash);
+        if (gen != generation_ || awaiting_snapshot_)
+            return; // the rest is superseded (a snapshot was asked for, or the link closed)
+    }
+}
+
+void Connection::applyOne(
+    std::uint64_t seq, const DeformOp& op, std::optional<std::uint64_t> world_hash) {
     Result<Replica::OpOutcome> outcome = replica_.applyOp(seq, op, world_hash);
     if (!outcome) {
         // a gap or an op our state cannot take: start again from a snapshot

@@ -14,6 +14,7 @@ void Replica::loadSnapshot(DecodedSnapshot snapshot) {
     verified_hash_ = terrain_->worldHash();
     diverged_ = false;
     suspects_.clear();
+    unverified_tiles_.clear();
     dirty_.tiles.clear();
     dirty_.cells.clear();
     dirty_.all = true;
@@ -21,7 +22,7 @@ void Replica::loadSnapshot(DecodedSnapshot snapshot) {
 }
 
 Result<Replica::OpOutcome>
-Replica::applyOp(std::uint64_t seq, const DeformOp& op, std::uint64_t world_hash) {
+Replica::applyOp(std::uint64_t seq, const DeformOp& op, std::optional<std::uint64_t> checked_hash) {
     if (!terrain_)
         return makeError(ErrorCode::kOutOfRange, "op before any snapshot");
     if (seq <= seq_) {
@@ -41,6 +42,13 @@ Replica::applyOp(std::uint64_t seq, const DeformOp& op, std::uint64_t world_hash
     // blocks and bounds on the client (tiles are for snapshots and repairs)
     if (!effect->cells.empty())
         dirty_.cells.push_back(effect->cells);
+    if (!checked_hash) {
+        // checked with a later op: its tiles are suspects if that check fails
+        auto& into = diverged_ ? suspects_ : unverified_tiles_;
+        into.insert(into.end(), effect->dirty_tiles.begin(), effect->dirty_tiles.end());
+        return OpOutcome::kApplied;
+    }
+    const std::uint64_t world_hash = *checked_hash;
     if (diverged_) {
         suspects_.insert(suspects_.end(), effect->dirty_tiles.begin(), effect->dirty_tiles.end());
         if (terrain_->worldHash() != world_hash)
@@ -51,9 +59,12 @@ Replica::applyOp(std::uint64_t seq, const DeformOp& op, std::uint64_t world_hash
     if (terrain_->worldHash() != world_hash) {
         ++stats_.hash_mismatches;
         diverged_ = true;
-        suspects_.assign(effect->dirty_tiles.begin(), effect->dirty_tiles.end());
+        suspects_.swap(unverified_tiles_);
+        suspects_.insert(suspects_.end(), effect->dirty_tiles.begin(), effect->dirty_tiles.end());
+        unverified_tiles_.clear();
         return OpOutcome::kDiverged;
     }
+    unverified_tiles_.clear();
     verified_seq_ = seq;
     verified_hash_ = world_hash;
     return OpOutcome::kApplied;

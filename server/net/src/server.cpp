@@ -3,6 +3,7 @@
 
 #include <terrain/assert.h>
 #include <terrain/server/server.h>
+#include <terrain/wire/op_batch.h>
 
 #include <algorithm>
 #include <chrono>
@@ -245,21 +246,20 @@ void Server::fail(const std::string& why) {
 }
 
 void Server::broadcast(std::vector<PendingOp>& ops) {
-    for (PendingOp& p : ops) {
-        const Accepted& a = p.accepted;
-        pb::Envelope envelope;
-        wire::opToWire(a.op, a.seq, a.world_hash, *envelope.mutable_op_applied());
-        wire::Frame frame = wire::encodeFrame(envelope);
-        op_frames_[a.seq % op_frames_.size()] = frame;
-        broadcast_seq_ = a.seq;
-        broadcast_hash_ = a.world_hash;
-        for (std::size_t i = 0; i < sessions_.size(); ++i)
-            sessions_[i]->sendOp(a.seq, frame);
-        if (auto requester = p.requester.lock()) {
-            pb::Envelope reply;
-            reply.mutable_deform_reply()->set_request_id(p.request_id);
-            reply.mutable_deform_reply()->set_accepted_seq(a.seq);
-            requester->sendControl(reply);
+    if (config_.batch_broadcasts && ops.size() > 1) {
+        broadcastBatched(ops);
+    } else {
+        for (PendingOp& p : ops) {
+            const Accepted& a = p.accepted;
+            pb::Envelope envelope;
+            wire::opToWire(a.op, a.seq, a.world_hash, *envelope.mutable_op_applied());
+            wire::Frame frame = wire::encodeFrame(envelope);
+            op_frames_[a.seq % op_frames_.size()] = frame;
+            broadcast_seq_ = a.seq;
+            broadcast_hash_ = a.world_hash;
+            for (std::size_t i = 0; i < sessions_.size(); ++i)
+                sessions_[i]->sendOp(a.seq, frame);
+            acknowledge(p);
         }
     }
     maybeWriteJournalSnapshot();
@@ -273,6 +273,49 @@ void Server::broadcast(std::vector<PendingOp>& ops) {
             buildSnapshot();
     if (on_broadcast)
         on_broadcast(broadcast_seq_);
+}
+
+void Server::acknowledge(const PendingOp& p) {
+    if (auto requester = p.requester.lock()) {
+        pb::Envelope reply;
+        reply.mutable_deform_reply()->set_request_id(p.request_id);
+        reply.mutable_deform_reply()->set_accepted_seq(p.accepted.seq);
+        requester->sendControl(reply);
+    }
+}
+
+void Server::broadcastBatched(std::vector<PendingOp>& ops) {
+    // every op's own frame stays in the ring: tails after a snapshot or a resume replay them
+    for (const PendingOp& p : ops) {
+        const Accepted& a = p.accepted;
+        pb::Envelope envelope;
+        wire::opToWire(a.op, a.seq, a.world_hash, *envelope.mutable_op_applied());
+        op_frames_[a.seq % op_frames_.size()] = wire::encodeFrame(envelope);
+    }
+    std::vector<DeformOp> batch_ops;
+    std::vector<std::uint64_t> hashes;
+    for (std::size_t from = 0; from < ops.size(); from += wire::kMaxBatchOps) {
+        const std::size_t to = std::min(ops.size(), from + wire::kMaxBatchOps);
+        batch_ops.clear();
+        hashes.clear();
+        for (std::size_t i = from; i < to; ++i) {
+            batch_ops.push_back(ops[i].accepted.op);
+            hashes.push_back(ops[i].accepted.world_hash);
+        }
+        const std::uint64_t first = ops[from].accepted.seq;
+        const std::uint64_t last = ops[to - 1].accepted.seq;
+        pb::Envelope envelope;
+        wire::batchToWire(
+            batch_ops, first, hashes, config_.batch_hash_per_op, *envelope.mutable_op_batch());
+        const wire::Frame frame = wire::encodeFrame(envelope);
+        broadcast_seq_ = last;
+        broadcast_hash_ = hashes.back();
+        for (std::size_t i = 0; i < sessions_.size(); ++i)
+            sessions_[i]->sendOps(first, last, frame);
+    }
+    // after the ops: a requester reads OpApplied (here, the batch) before its DeformReply
+    for (const PendingOp& p : ops)
+        acknowledge(p);
 }
 
 bool Server::tailFits(std::uint64_t ops) const {

@@ -458,6 +458,22 @@ void Session::sendOp(std::uint64_t seq, const wire::Frame& frame) {
     sent_through_ = seq;
 }
 
+void Session::sendOps(std::uint64_t first, std::uint64_t last, const wire::Frame& batch) {
+    if (state_ != State::kLive || awaiting_snapshot_ || last <= sent_through_)
+        return;
+    if (first <= sent_through_) {
+        for (std::uint64_t seq = sent_through_ + 1; seq <= last; ++seq)
+            sendOp(seq, server_.opFrame(seq));
+        return;
+    }
+    if (queue_.budgetBytes() + batch->size() > server_.config_.outbound_budget_bytes) {
+        overBudget();
+        return;
+    }
+    enqueue(batch, FrameClass::kOp);
+    sent_through_ = last;
+}
+
 void Session::overBudget() {
     if (resynced_since_drain_) {
         ++server_.stats_.slow_disconnects;

@@ -27,6 +27,9 @@ class Session : public std::enable_shared_from_this<Session> {
     void start();
     /// Queues a broadcast op unless this session already has it (snapshot at or after seq).
     void sendOp(std::uint64_t seq, const wire::Frame& frame);
+    /// Queues the OpBatch frame of ops first..last; the ones after what this session already
+    /// has one by one when a snapshot covered part of them.
+    void sendOps(std::uint64_t first, std::uint64_t last, const wire::Frame& batch);
     void sendControl(const wire::pb::Envelope& envelope);
     /// Queues a Disconnect with the reason, stops reading, and closes once it is written (or
     /// after the linger time).

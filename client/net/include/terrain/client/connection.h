@@ -17,6 +17,7 @@
 #include <deque>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -54,7 +55,8 @@ struct ConnectionStats {
     std::uint64_t bytes_in = 0;
     std::uint64_t bytes_out = 0;
     std::uint64_t frames_in = 0;
-    std::uint64_t op_bytes_in = 0; ///< wire bytes of OpApplied frames, prefix included
+    std::uint64_t op_bytes_in = 0; ///< wire bytes of OpApplied and OpBatch frames, prefixes in
+    std::uint64_t op_batches = 0;  ///< OpBatch frames received
     std::uint64_t repair_requests = 0;
     std::uint64_t disconnects = 0;
 };
@@ -139,8 +141,10 @@ class Connection : public std::enable_shared_from_this<Connection> {
     void readMore();
     void handle(const wire::pb::Envelope& envelope);
     void onOpApplied(const wire::pb::OpApplied& op, std::size_t frame_bytes);
-    /// One arrived op onto the replica: hash check, repair or snapshot request, on_applied.
-    void applyOne(std::uint64_t seq, const DeformOp& op, std::uint64_t world_hash);
+    void onOpBatch(const wire::pb::OpBatch& batch, std::size_t frame_bytes);
+    /// One arrived op onto the replica: hash check (when it carries a hash), repair or snapshot
+    /// request, on_applied.
+    void applyOne(std::uint64_t seq, const DeformOp& op, std::optional<std::uint64_t> world_hash);
     std::size_t applyWaiting(std::size_t count);
     void onRepairState(const wire::pb::RepairState& state);
     void requestRepair(std::vector<std::int32_t> tiles, bool want_hashes);
@@ -169,7 +173,7 @@ class Connection : public std::enable_shared_from_this<Connection> {
     struct Arrived {
         std::uint64_t seq = 0;
         DeformOp op;
-        std::uint64_t world_hash = 0;
+        std::optional<std::uint64_t> world_hash; ///< none: inside a batch, checked after it
     };
     /// Paced only: ops read and not applied yet, in seq order. Emptied by a snapshot (which
     /// supersedes them) and by a lost link (the resume asks from the replica's seq again).

@@ -68,7 +68,11 @@ class Replica {
     /// Applies op `seq` on top of seq - 1 and compares the hash. Errors (the caller resyncs by
     /// snapshot): kOutOfRange for a gap (seq > current + 1) or no state yet; the core's refusal
     /// if the op does not apply (validation depends on the spec only, so this means a bad peer).
-    Result<OpOutcome> applyOp(std::uint64_t seq, const DeformOp& op, std::uint64_t world_hash);
+    /// Without `world_hash` (an op inside a batch whose hash comes after its last op), the op is
+    /// applied unchecked: the next checked op verifies it too, and a mismatch there suspects
+    /// the tiles of every op since the last verified one.
+    Result<OpOutcome>
+    applyOp(std::uint64_t seq, const DeformOp& op, std::optional<std::uint64_t> world_hash);
 
     /// Tiles to ask the server for: those changed by ops since the divergence, ascending.
     std::vector<std::int32_t> suspectTiles() const;
@@ -108,6 +112,7 @@ class Replica {
     std::uint64_t verified_hash_ = 0;
     bool diverged_ = false;
     std::vector<std::int32_t> suspects_;
+    std::vector<std::int32_t> unverified_tiles_; // dirtied by unchecked ops since the last check
     DirtySet dirty_;
     ReplicaStats stats_;
 };

@@ -52,6 +52,12 @@ struct ServerConfig {
     std::size_t snapshot_chunk_bytes = wire::kDefaultSnapshotChunkBytes;
     /// The cached join snapshot is rebuilt once it is this many ops behind (joins replay the rest).
     std::uint64_t snapshot_cache_max_lag = 2000;
+    /// Tick batching: the ops of one group commit go to every session as one OpBatch frame
+    /// (PROTOCOL.md, "OpBatch": about 15 bytes a crater in a burst) instead of an OpApplied
+    /// each. Off: one OpApplied per op, each with its world hash.
+    bool batch_broadcasts = false;
+    /// With batching, every op's world hash travels too (8 bytes an op), not only the last one's.
+    bool batch_hash_per_op = false;
     /// Group commits on the commit thread, the io thread going on meanwhile (the pipeline);
     /// false: the io thread writes and syncs each group itself (the old way, for comparison).
     bool pipeline_commits = true;
@@ -152,6 +158,10 @@ class Server {
     void finishCommit(const std::shared_ptr<CommitInFlight>& flight, bool go_on);
     /// Broadcast + acknowledgement of durable ops, in seq order; then the periodic snapshots.
     void broadcast(std::vector<PendingOp>& ops);
+    /// Tick batching: the ops as OpBatch frames (kMaxBatchOps each), then the replies.
+    void broadcastBatched(std::vector<PendingOp>& ops);
+    /// The requester's DeformReply for an op broadcast.
+    void acknowledge(const PendingOp& p);
     /// Synchronous: every accepted op durable and broadcast when it returns (or the server
     /// failed). Joins, repairs, snapshot builds and shutdown need a state with no op that is not
     /// durable; waits for the group on the commit thread, then commits the rest on this one.
