@@ -270,7 +270,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                 auto ops = wire::batchFromWire(envelope->op_batch(), 0);
                 if (!ops)
                     break;
-                std::vector<DeformOp> plain;
+                std::vector<terrain::DeformOp> plain;
                 for (const wire::BatchedOp& b : *ops) {
                     plain.push_back(b.op);
                     applyOp(t, b.op);
