@@ -158,6 +158,7 @@ encodeGenesisDelta(const Terrain& terrain, std::uint64_t sequence, std::uint64_t
             tiles.push_back(tile);
     detail::putU32(out, static_cast<std::uint32_t>(tiles.size()));
     std::vector<std::uint8_t> record;
+    std::vector<bool> local(static_cast<std::size_t>(kTileCells * kTileCells));
     std::int32_t previous_tile = -1;
     for (std::int32_t tile : tiles) {
         const std::int32_t tx = tile % s.tilesX();
@@ -176,8 +177,14 @@ encodeGenesisDelta(const Terrain& terrain, std::uint64_t sequence, std::uint64_t
             detail::putVarU32(record, static_cast<std::uint32_t>(e.cell - previous_cell - 1));
             previous_cell = e.cell;
         }
+        std::fill(local.begin(), local.end(), false);
+        for (const PatchEntry& e : patches)
+            local[e.cell] = true;
         const auto has = [&](std::int32_t x, std::int32_t y) {
-            return terrain.findPatch(x, y) != nullptr;
+            if (x / kTileCells == tx && y / kTileCells == ty)
+                return static_cast<bool>(local[static_cast<std::size_t>(
+                    (y % kTileCells) * kTileCells + x % kTileCells)]);
+            return terrain.findPatch(x, y) != nullptr; // a border cell's neighbour
         };
         for (const PatchEntry& e : patches) {
             const std::int32_t cx = tx * kTileCells + e.cell % kTileCells;
@@ -330,32 +337,32 @@ decodeGenesisDelta(std::span<const std::uint8_t> bytes, const Terrain& holder) {
         }
         pending.push_back(Pending{tile32, rec});
     }
-    const auto has = [&](std::int32_t x, std::int32_t y) {
-        return findIn(
-                   t.tiles_[static_cast<std::size_t>(t.tileOfCell(x, y))].patches,
-                   Terrain::localCell(x, y)) != nullptr;
-    };
+    // a tile's own patches through a table (binary searches were most of this pass), its
+    // neighbours' by search: only border cells ask for those
+    std::vector<const DetailPatch*> local(static_cast<std::size_t>(kTileCells * kTileCells));
     for (Pending& p : pending) {
         const std::int32_t tx = p.tile % spec.tilesX();
         const std::int32_t ty = p.tile / spec.tilesX();
-        for (PatchEntry& e : t.tiles_[static_cast<std::size_t>(p.tile)].patches) {
+        std::vector<PatchEntry>& own = t.tiles_[static_cast<std::size_t>(p.tile)].patches;
+        std::fill(local.begin(), local.end(), nullptr);
+        for (const PatchEntry& e : own)
+            local[e.cell] = &e.patch;
+        const auto at = [&](std::int32_t x, std::int32_t y) -> const DetailPatch* {
+            if (x / kTileCells == tx && y / kTileCells == ty)
+                return local[Terrain::localCell(x, y)];
+            return findIn(
+                t.tiles_[static_cast<std::size_t>(t.tileOfCell(x, y))].patches,
+                Terrain::localCell(x, y));
+        };
+        const auto has = [&](std::int32_t x, std::int32_t y) { return at(x, y) != nullptr; };
+        for (PatchEntry& e : own) {
             const std::int32_t cx = tx * kTileCells + e.cell % kTileCells;
             const std::int32_t cy = ty * kTileCells + e.cell / kTileCells;
             const Neighbours n = neighboursOf(spec, cx, cy, has);
             const CellCorners corners = t.corners(cx, cy);
             // earlier in the order, so their controls are decoded already
-            const DetailPatch* below =
-                n.patched[0]
-                    ? findIn(
-                          t.tiles_[static_cast<std::size_t>(t.tileOfCell(cx, cy - 1))].patches,
-                          Terrain::localCell(cx, cy - 1))
-                    : nullptr;
-            const DetailPatch* left =
-                n.patched[2]
-                    ? findIn(
-                          t.tiles_[static_cast<std::size_t>(t.tileOfCell(cx - 1, cy))].patches,
-                          Terrain::localCell(cx - 1, cy))
-                    : nullptr;
+            const DetailPatch* below = n.patched[0] ? at(cx, cy - 1) : nullptr;
+            const DetailPatch* left = n.patched[2] ? at(cx - 1, cy) : nullptr;
             DetailPatch& patch = e.patch;
             pinCorners(patch, corners);
             for (int side = 0; side < 4; ++side)
