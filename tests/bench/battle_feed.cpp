@@ -28,6 +28,7 @@ int main(int argc, char** argv) {
     std::string ops_path;
     int window = 64;
     double rate = 0.0;
+    std::string sends_path;
     app.add_option("--host", host);
     app.add_option("--port", port)->required();
     app.add_option("--token", token, "a deformer token")->required();
@@ -35,6 +36,10 @@ int main(int argc, char** argv) {
     app.add_option("--window", window, "requests in flight at most")->check(CLI::Range(1, 100000));
     app.add_option("--rate", rate, "paced: requests per second at most (0: as the window allows)")
         ->check(CLI::NonNegativeNumber);
+    app.add_option(
+        "--sends", sends_path,
+        "write 'seq nanoseconds' (steady clock) of each accepted op's request (load_viewers "
+        "merge)");
     CLI11_PARSE(app, argc, argv);
 
     std::ifstream file(ops_path);
@@ -62,6 +67,7 @@ int main(int argc, char** argv) {
     std::vector<std::chrono::steady_clock::time_point> sent_at(ops->size());
     std::vector<double> latency_ms;
     latency_ms.reserve(ops->size());
+    std::vector<std::pair<std::uint64_t, std::chrono::steady_clock::time_point>> accepted_sends;
     connection->on_deform_reply = [&](const client::DeformAnswer& a) {
         // request ids count from 1 in the order sent
         const std::size_t i = a.request_id - 1;
@@ -70,6 +76,8 @@ int main(int argc, char** argv) {
                                      std::chrono::steady_clock::now() - sent_at[i])
                                      .count());
         ++answered;
+        if (a.accepted && i < sent_at.size())
+            accepted_sends.emplace_back(a.seq, sent_at[i]);
         if (a.accepted) {
             ++accepted;
             last_accepted = std::max(last_accepted, a.seq);
@@ -124,6 +132,14 @@ int main(int argc, char** argv) {
         static_cast<unsigned long long>(connection->stats().op_batches),
         static_cast<unsigned long long>(replica.seq()),
         static_cast<unsigned long long>(replica.worldHash()), ok ? "" : " (INCOMPLETE)");
+    if (!sends_path.empty()) {
+        std::ofstream sends(sends_path);
+        for (const auto& [seq, at] : accepted_sends)
+            sends << seq << ' '
+                  << std::chrono::duration_cast<std::chrono::nanoseconds>(at.time_since_epoch())
+                         .count()
+                  << '\n';
+    }
     connection->stop();
     io.run_for(std::chrono::milliseconds(10));
     return ok ? 0 : 1;

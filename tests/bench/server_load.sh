@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# Load with clients in separate processes: a terrain-server with the fsync journal, P processes
+# of light viewers (load_viewers: V each, decoding every op), and one deformer process
+# (battle_feed) sending battle_bench's battle ops, windowed or paced. Prints the feed's line and
+# the latency from each request's send to its op's receipt by every viewer.
+# Usage: bash tests/bench/server_load.sh [feed options...]
+#   env: SHOTS (4000), PROCS (4), VIEWERS (16 per process), SERVER_FLAGS (e.g. --batch-broadcasts)
+# Examples: bash tests/bench/server_load.sh --rate 600
+#           bash tests/bench/server_load.sh --window 256
+#           PROCS=8 VIEWERS=32 bash tests/bench/server_load.sh --rate 100
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+shots=${SHOTS:-4000}
+procs=${PROCS:-4}
+viewers=${VIEWERS:-16}
+bin=build/release
+out=out/bench/server_load
+rm -rf "$out"
+mkdir -p "$out"
+export TERRAIN_TOKEN_SECRET="bench-$(od -An -N16 -tx1 /dev/urandom | tr -d ' \n')"
+"$bin/tests/battle_bench" --shots "$shots" --ops "$out/ops.txt" > /dev/null
+# shellcheck disable=SC2086
+"$bin/server/terrain-server" serve --data-dir "$out/data" --port 0 --port-file "$out/port" \
+    --deform-rate 100000 --max-sessions 4096 ${SERVER_FLAGS:-} > "$out/server.log" 2>&1 &
+server=$!
+trap 'kill $server 2> /dev/null || true' EXIT
+for _ in $(seq 1 300); do
+    [ -s "$out/port" ] && break
+    sleep 0.1
+done
+port=$(cat "$out/port")
+viewer_token=$("$bin/server/terrain-server" token --player 2 --role viewer)
+pids=()
+for p in $(seq 1 "$procs"); do
+    "$bin/tests/load_viewers" run --port "$port" --token "$viewer_token" --viewers "$viewers" \
+        --until "$shots" --out "$out/receipts$p.txt" > "$out/viewers$p.log" 2>&1 &
+    pids+=($!)
+done
+sleep 2 # every viewer joined at seq 0
+"$bin/tests/battle_feed" --port "$port" --ops "$out/ops.txt" --sends "$out/sends.txt" "$@" \
+    --token "$("$bin/server/terrain-server" token --player 1 --role deformer)"
+status=0
+for p in "${pids[@]}"; do wait "$p" || status=1; done
+cat "$out"/viewers*.log
+receipts=()
+for p in $(seq 1 "$procs"); do receipts+=("$out/receipts$p.txt"); done
+"$bin/tests/load_viewers" merge --sends "$out/sends.txt" --receipts "${receipts[@]}" || status=1
+echo "($procs processes x $viewers light viewers, server flags: ${SERVER_FLAGS:-none})"
+kill -TERM $server
+wait $server || true
+exit $status
