@@ -4,7 +4,8 @@
 # (battle_feed) sending battle_bench's battle ops, windowed or paced. Prints the feed's line and
 # the latency from each request's send to its op's receipt by every viewer.
 # Usage: bash tests/bench/server_load.sh [feed options...]
-#   env: SHOTS (4000), PROCS (4), VIEWERS (16 per process), SERVER_FLAGS (e.g. --batch-broadcasts)
+#   env: SHOTS (4000), PROCS (4), VIEWERS (16 per process), SERVER_FLAGS (e.g. --batch-broadcasts),
+#        JOIN_EVERY (seconds: a fresh viewer process joins by snapshot that often during the feed)
 # Examples: bash tests/bench/server_load.sh --rate 600
 #           bash tests/bench/server_load.sh --window 256
 #           PROCS=8 VIEWERS=32 bash tests/bench/server_load.sh --rate 100
@@ -37,8 +38,26 @@ for p in $(seq 1 "$procs"); do
     pids+=($!)
 done
 sleep 2 # every viewer joined at seq 0
+joiner=""
+if [ -n "${JOIN_EVERY:-}" ]; then
+    (
+        while :; do
+            sleep "$JOIN_EVERY"
+            start=$(date +%s%N)
+            "$bin/tests/load_viewers" run --port "$port" --token "$viewer_token" --viewers 1 \
+                --until 1 --out /dev/null > /dev/null 2>&1 || true
+            echo "join $((($(date +%s%N) - start) / 1000000)) ms" >> "$out/joins.txt"
+        done
+    ) &
+    joiner=$!
+fi
 "$bin/tests/battle_feed" --port "$port" --ops "$out/ops.txt" --sends "$out/sends.txt" "$@" \
     --token "$("$bin/server/terrain-server" token --player 1 --role deformer)"
+if [ -n "$joiner" ]; then
+    kill "$joiner" 2> /dev/null || true
+    echo "$(wc -l < "$out/joins.txt") joins during the feed:" \
+        "$(sort -n -k2 "$out/joins.txt" | awk '{ a[NR] = $2 } END { print "p50", a[int((NR + 1) / 2)], "ms, max", a[NR], "ms" }')"
+fi
 status=0
 for p in "${pids[@]}"; do wait "$p" || status=1; done
 cat "$out"/viewers*.log
