@@ -199,6 +199,10 @@ int serve(const Options& o) {
         spec.width, spec.height, static_cast<unsigned long long>(authority.seq()),
         static_cast<unsigned long long>(authority.terrain().worldHash()), load_ms, o.bind.c_str(),
         srv.port());
+    std::printf(
+        "terrain-server: clients up to %llu ops behind resume without a snapshot (--op-log %zu, "
+        "--outbound-budget %zu: half of it at 64 bytes an op)\n",
+        static_cast<unsigned long long>(srv.resumeWindow()), o.op_log, o.outbound_budget);
     if (!o.port_file.empty()) {
         std::ofstream(o.port_file) << srv.port() << "\n";
     }

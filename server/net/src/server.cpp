@@ -318,6 +318,11 @@ void Server::broadcastBatched(std::vector<PendingOp>& ops) {
         acknowledge(p);
 }
 
+std::uint64_t Server::resumeWindow() const {
+    return std::min<std::uint64_t>(
+        op_frames_.size(), config_.outbound_budget_bytes / 2 / kMaxOpFrameBytes);
+}
+
 bool Server::tailFits(std::uint64_t ops) const {
     return ops * kMaxOpFrameBytes <= config_.outbound_budget_bytes / 2;
 }

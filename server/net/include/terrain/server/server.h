@@ -115,6 +115,9 @@ class Server {
     std::uint64_t broadcastHash() const { return broadcast_hash_; }
     /// The world's genesis (Terrain::genesisHash): clients that hold it join by a delta.
     std::uint64_t genesisHash() const { return genesis_hash_; }
+    /// How many ops behind a client may be and still resume: the retained log's length, or
+    /// what half a session's outbound budget holds (kMaxOpFrameBytes an op), whichever is less.
+    std::uint64_t resumeWindow() const;
     /// Bytes queued in all sessions (shared frames counted per session).
     std::size_t queuedBytes() const;
     /// Called on the io thread whenever a batch of ops has been broadcast (benchmarks, logs).
