@@ -10,19 +10,12 @@ shift || true
 settings=("$@")
 [ ${#settings[@]} -gt 0 ] || settings=(0 50)
 bin=build/release
-out=out/bench/frame_budget
-rm -rf "$out"
-mkdir -p "$out"
-export TERRAIN_TOKEN_SECRET="bench-$(od -An -N16 -tx1 /dev/urandom | tr -d ' \n')"
-"$bin/server/terrain-server" serve --no-journal --port 0 --port-file "$out/port" \
-    > "$out/server.log" 2>&1 &
-server=$!
+# shellcheck source=tests/bench/bench_server.sh
+source tests/bench/bench_server.sh
+bench_folder out/bench/frame_budget
+start_server "$out/server.log" "$bin/server/terrain-server" --no-journal
 trap 'kill $server 2> /dev/null || true' EXIT
-for _ in $(seq 1 300); do
-    [ -s "$out/port" ] && break
-    sleep 0.1
-done
-endpoint="127.0.0.1:$(cat "$out/port")"
+endpoint="127.0.0.1:$port"
 for ms in "${settings[@]}"; do
     token=$("$bin/server/terrain-server" token --player 1 --role deformer)
     "$bin/client/bot/terrain-bot" --connect "$endpoint" --token "$token" --name "ms$ms" \

@@ -10,24 +10,15 @@ server_bin=${1:-build/release/server/terrain-server}
 shots=${2:-4000}
 viewers=${3:-4}
 bin=build/release
-out=out/bench/server_commit
-rm -rf "$out"
-mkdir -p "$out"
-export TERRAIN_TOKEN_SECRET="bench-$(od -An -N16 -tx1 /dev/urandom | tr -d ' \n')"
+# shellcheck source=tests/bench/bench_server.sh
+source tests/bench/bench_server.sh
+bench_folder out/bench/server_commit
 "$bin/tests/battle_bench" --shots "$shots" --ops "$out/ops.txt" > /dev/null
 run() { # name feed-options...
     local name=$1
     shift
     rm -rf "$out/data"
-    "$server_bin" serve --data-dir "$out/data" --port 0 --port-file "$out/port" \
-        --deform-rate 100000 > "$out/server-$name.log" 2>&1 &
-    local server=$!
-    for _ in $(seq 1 300); do
-        [ -s "$out/port" ] && break
-        sleep 0.1
-    done
-    local port
-    port=$(cat "$out/port")
+    start_server "$out/server-$name.log" "$server_bin" --data-dir "$out/data" --deform-rate 100000
     local pids=()
     for v in $(seq 1 "$viewers"); do
         "$bin/client/bot/terrain-bot" --connect "127.0.0.1:$port" --name "v$v" \
@@ -41,9 +32,7 @@ run() { # name feed-options...
     "$bin/tests/battle_feed" --port "$port" --ops "$out/ops.txt" "$@" \
         --token "$("$server_bin" token --player 1 --role deformer)"
     for p in "${pids[@]}"; do wait "$p" || true; done
-    kill -TERM $server
-    wait $server || true
-    rm -f "$out/port"
+    stop_server
 }
 run windowed --window 64
 run paced-600 --rate 600

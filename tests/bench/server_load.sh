@@ -15,21 +15,14 @@ shots=${SHOTS:-4000}
 procs=${PROCS:-4}
 viewers=${VIEWERS:-16}
 bin=build/release
-out=out/bench/server_load
-rm -rf "$out"
-mkdir -p "$out"
-export TERRAIN_TOKEN_SECRET="bench-$(od -An -N16 -tx1 /dev/urandom | tr -d ' \n')"
+# shellcheck source=tests/bench/bench_server.sh
+source tests/bench/bench_server.sh
+bench_folder out/bench/server_load
 "$bin/tests/battle_bench" --shots "$shots" --ops "$out/ops.txt" > /dev/null
 # shellcheck disable=SC2086
-"$bin/server/terrain-server" serve --data-dir "$out/data" --port 0 --port-file "$out/port" \
-    --deform-rate 100000 --max-sessions 4096 ${SERVER_FLAGS:-} > "$out/server.log" 2>&1 &
-server=$!
+start_server "$out/server.log" "$bin/server/terrain-server" --data-dir "$out/data" \
+    --deform-rate 100000 --max-sessions 4096 ${SERVER_FLAGS:-}
 trap 'kill $server 2> /dev/null || true' EXIT
-for _ in $(seq 1 300); do
-    [ -s "$out/port" ] && break
-    sleep 0.1
-done
-port=$(cat "$out/port")
 viewer_token=$("$bin/server/terrain-server" token --player 2 --role viewer)
 pids=()
 for p in $(seq 1 "$procs"); do
@@ -65,6 +58,5 @@ receipts=()
 for p in $(seq 1 "$procs"); do receipts+=("$out/receipts$p.txt"); done
 "$bin/tests/load_viewers" merge --sends "$out/sends.txt" --receipts "${receipts[@]}" || status=1
 echo "($procs processes x $viewers light viewers, server flags: ${SERVER_FLAGS:-none})"
-kill -TERM $server
-wait $server || true
+stop_server
 exit $status

@@ -8,20 +8,13 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 shots=${1:-10000}
 bin=build/release
-out=out/bench/server_memory
-rm -rf "$out"
-mkdir -p "$out"
-export TERRAIN_TOKEN_SECRET="bench-$(od -An -N16 -tx1 /dev/urandom | tr -d ' \n')"
+# shellcheck source=tests/bench/bench_server.sh
+source tests/bench/bench_server.sh
+bench_folder out/bench/server_memory
 "$bin/tests/battle_bench" --shots "$shots" --ops "$out/ops.txt" > "$out/battle_bench.json"
-"$bin/server/terrain-server" serve --data-dir "$out/data" --port 0 --port-file "$out/port" \
-    --deform-rate 100000 > "$out/server.log" 2>&1 &
-server=$!
+start_server "$out/server.log" "$bin/server/terrain-server" --data-dir "$out/data" \
+    --deform-rate 100000
 trap 'kill $server 2> /dev/null || true' EXIT
-for _ in $(seq 1 300); do
-    [ -s "$out/port" ] && break
-    sleep 0.1
-done
-port=$(cat "$out/port")
 memory() { # VmRSS and VmHWM of the server, MiB
     awk '/^VmRSS|^VmHWM/ { sub(":", "", $1); printf "\"%s_mib\": %.1f, ", $1, $2 / 1024 }' \
         "/proc/$server/status" | sed 's/, $//'
@@ -36,8 +29,7 @@ viewer=$("$bin/server/terrain-server" token --player 2 --role viewer)
 "$bin/client/bot/terrain-bot" --connect "127.0.0.1:$port" --token "$viewer" --name bare \
     --frames 1 --craters 0 --settle 0.2 --report "$out/bare.json" > /dev/null
 joined=$(memory)
-kill -TERM $server
-wait $server || true
+stop_server
 terrain=$(grep -o '"terrain_mib": [0-9.]*' "$out/battle_bench.json")
 echo "{\"shots\": $shots, $terrain, \"idle\": {$idle}, \"after_battle\": {$battle}," \
     "\"after_two_joins\": {$joined}}"

@@ -2,6 +2,8 @@
 
 // Little-endian encoding helpers private to the core (hash input, snapshots).
 
+#include <terrain/varint.h>
+
 #include <bit>
 #include <cstdint>
 #include <cstring>
@@ -29,19 +31,12 @@ inline void putU64(std::vector<std::uint8_t>& out, std::uint64_t v) {
         out.push_back(static_cast<std::uint8_t>(v >> s));
 }
 
-/// LEB128: 7 bits a byte, low first, high bit set on all but the last byte.
 inline void putVarU32(std::vector<std::uint8_t>& out, std::uint32_t v) {
-    while (v >= 0x80) {
-        out.push_back(static_cast<std::uint8_t>(v | 0x80));
-        v >>= 7;
-    }
-    out.push_back(static_cast<std::uint8_t>(v));
+    varint::put(out, v);
 }
 
-/// Zigzag (0, -1, 1, -2, ... -> 0, 1, 2, 3, ...) then LEB128: small magnitudes of either sign
-/// take one byte.
 inline void putVarI32(std::vector<std::uint8_t>& out, std::int32_t v) {
-    putVarU32(out, (static_cast<std::uint32_t>(v) << 1) ^ static_cast<std::uint32_t>(v >> 31));
+    varint::putSigned(out, v);
 }
 
 /// Bounds-checked little-endian reader over untrusted bytes: every read reports failure
@@ -88,29 +83,9 @@ class ByteReader {
             i32(out[i]);
         return true;
     }
-    /// A LEB128 value of at most 5 bytes that fits 32 bits, in its shortest form (so every
-    /// value has one encoding); false on truncation, overflow or a longer form.
-    bool varU32(std::uint32_t& v) {
-        v = 0;
-        for (int shift = 0; shift < 35; shift += 7) {
-            if (pos_ >= bytes_.size())
-                return false;
-            const std::uint8_t b = bytes_[pos_++];
-            if (shift == 28 && (b & 0x70) != 0)
-                return false; // bits beyond 32
-            v |= static_cast<std::uint32_t>(b & 0x7f) << shift;
-            if ((b & 0x80) == 0)
-                return b != 0 || shift == 0; // a zero last byte: a longer form than needed
-        }
-        return false;
-    }
-    bool varI32(std::int32_t& v) {
-        std::uint32_t z = 0;
-        if (!varU32(z))
-            return false;
-        v = static_cast<std::int32_t>((z >> 1) ^ (~(z & 1) + 1));
-        return true;
-    }
+    /// varint.h's numbers: false on truncation, overflow or a longer form than needed.
+    bool varU32(std::uint32_t& v) { return varint::read32(bytes_, pos_, v); }
+    bool varI32(std::int32_t& v) { return varint::readSigned(bytes_, pos_, v); }
     bool skip(std::size_t n) {
         if (remaining() < n)
             return false;

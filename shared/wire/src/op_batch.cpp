@@ -1,48 +1,9 @@
+#include <terrain/varint.h>
 #include <terrain/wire/op_batch.h>
 
 #include <string>
 
 namespace terrain::wire {
-namespace {
-
-void putVar(std::string& out, std::uint64_t v) {
-    while (v >= 0x80) {
-        out.push_back(static_cast<char>(v | 0x80));
-        v >>= 7;
-    }
-    out.push_back(static_cast<char>(v));
-}
-
-void putZig(std::string& out, std::int32_t v) {
-    putVar(out, (static_cast<std::uint32_t>(v) << 1) ^ static_cast<std::uint32_t>(v >> 31));
-}
-
-/// LEB128 of at most 10 bytes, shortest form; false on truncation or a longer form.
-bool readVar(std::span<const std::uint8_t> bytes, std::size_t& at, std::uint64_t& v) {
-    v = 0;
-    for (int shift = 0; shift < 70; shift += 7) {
-        if (at >= bytes.size())
-            return false;
-        const std::uint8_t b = bytes[at++];
-        if (shift == 63 && (b & 0x7e) != 0)
-            return false; // beyond 64 bits
-        v |= static_cast<std::uint64_t>(b & 0x7f) << shift;
-        if ((b & 0x80) == 0)
-            return b != 0 || shift == 0;
-    }
-    return false;
-}
-
-bool readZig(std::span<const std::uint8_t> bytes, std::size_t& at, std::int32_t& v) {
-    std::uint64_t z = 0;
-    if (!readVar(bytes, at, z) || z > 0xffffffffu)
-        return false;
-    const auto u = static_cast<std::uint32_t>(z);
-    v = static_cast<std::int32_t>((u >> 1) ^ (~(u & 1) + 1));
-    return true;
-}
-
-} // namespace
 
 std::string packOps(std::span<const DeformOp> ops) {
     std::string out;
@@ -50,12 +11,12 @@ std::string packOps(std::span<const DeformOp> ops) {
     pb::Op wire;
     for (const DeformOp& op : ops) {
         opToWire(op, wire); // the same field mapping as an Op message
-        putVar(out, wire.kind());
-        putVar(out, wire.center_x());
-        putVar(out, wire.center_y());
-        putVar(out, wire.radius());
-        putZig(out, wire.height());
-        putZig(out, wire.strength_minus_unit());
+        varint::put(out, wire.kind());
+        varint::put(out, wire.center_x());
+        varint::put(out, wire.center_y());
+        varint::put(out, wire.radius());
+        varint::putSigned(out, wire.height());
+        varint::putSigned(out, wire.strength_minus_unit());
     }
     return out;
 }
@@ -75,9 +36,9 @@ Result<std::vector<DeformOp>> unpackOps(std::span<const std::uint8_t> bytes, std
         std::uint64_t radius = 0;
         std::int32_t height = 0;
         std::int32_t strength = 0;
-        if (!readVar(bytes, at, kind) || !readVar(bytes, at, x) || !readVar(bytes, at, y) ||
-            !readVar(bytes, at, radius) || !readZig(bytes, at, height) ||
-            !readZig(bytes, at, strength))
+        if (!varint::read(bytes, at, kind) || !varint::read(bytes, at, x) ||
+            !varint::read(bytes, at, y) || !varint::read(bytes, at, radius) ||
+            !varint::readSigned(bytes, at, height) || !varint::readSigned(bytes, at, strength))
             return makeError(
                 ErrorCode::kBadFormat,
                 "op " + std::to_string(ops.size()) +
