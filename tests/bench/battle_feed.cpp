@@ -2,12 +2,16 @@
 // deformer, at most --window requests unanswered, and waits until every request is answered and
 // its replica holds the server's last op. For measuring a real server process under a battle
 // (tests/bench/server_memory.sh, server_commit.sh). Prints accepted, refused, seconds, ops per
-// second, request -> reply latency (median, p99, max), the final seq and hash.
+// second, request -> reply latency (median, p99, max), the final seq and hash. With --light the
+// feeder keeps no replica: it sends, reads the replies and skips the ops, so that on a shared
+// machine its CPU goes to the server (a game's players apply ops on machines of their own).
 // Exit status: 0 when every op was answered and the replica verified; 1 otherwise; 2 on input.
 
 #include <terrain/client/connection.h>
 #include <terrain/client/replica.h>
 #include <terrain/op_script.h>
+#include <terrain/wire/codec.h>
+#include <terrain/wire/framing.h>
 
 #include <CLI/CLI.hpp>
 
@@ -19,6 +23,111 @@
 #include <sstream>
 #include <string>
 
+namespace {
+
+/// A deformer without a replica: Hello, then requests; reads replies and skips everything else.
+class LightDeformer {
+  public:
+    LightDeformer(
+        asio::io_context& io, const std::string& host, std::uint16_t port, const std::string& token)
+        : socket_(io) {
+        terrain::wire::pb::Envelope e;
+        e.mutable_hello()->set_protocol_version(terrain::wire::kProtocolVersion);
+        e.mutable_hello()->set_token(token);
+        e.mutable_hello()->set_client_name("battle_feed --light");
+        terrain::wire::appendFrame(e, out_);
+        socket_.async_connect(
+            {asio::ip::make_address(host), port}, [this](const asio::error_code& ec) {
+                if (ec)
+                    return fail("connect: " + ec.message());
+                socket_.set_option(asio::ip::tcp::no_delay(true));
+                write();
+                read();
+            });
+    }
+    std::function<void(const terrain::client::DeformAnswer&)> on_reply;
+    bool joined() const { return joined_ && !failed_; }
+    bool failed() const { return failed_; }
+    std::uint64_t opBytes() const { return op_bytes_; }
+    std::uint32_t request(const terrain::DeformOp& op) {
+        terrain::wire::pb::Envelope e;
+        e.mutable_deform()->set_request_id(next_id_);
+        terrain::wire::opToWire(op, *e.mutable_deform()->mutable_canonical());
+        terrain::wire::appendFrame(e, out_);
+        write();
+        return next_id_++;
+    }
+
+  private:
+    void fail(const std::string& why) {
+        if (!failed_)
+            std::fprintf(stderr, "battle_feed --light: %s\n", why.c_str());
+        failed_ = true;
+    }
+    void write() {
+        if (writing_ || out_.empty() || !socket_.is_open())
+            return;
+        writing_ = true;
+        busy_.swap(out_);
+        out_.clear();
+        asio::async_write(socket_, asio::buffer(busy_), [this](const asio::error_code& ec, auto) {
+            writing_ = false;
+            if (ec)
+                return fail("write: " + ec.message());
+            write();
+        });
+    }
+    void read() {
+        const std::span<std::uint8_t> space = reader_.prepare(64 << 10);
+        socket_.async_read_some(
+            asio::buffer(space.data(), space.size()),
+            [this](const asio::error_code& ec, std::size_t n) {
+                if (ec)
+                    return fail("read: " + ec.message());
+                reader_.commit(n);
+                for (;;) {
+                    auto next = reader_.next();
+                    if (!next)
+                        return fail("bad frame: " + next.error().message);
+                    if (!next->has_value())
+                        break;
+                    auto e = terrain::wire::decodeEnvelope(**next);
+                    if (!e)
+                        return fail(e.error().message);
+                    if (e->has_welcome()) {
+                        joined_ = true;
+                    } else if (e->has_op_applied() || e->has_op_batch()) {
+                        op_bytes_ +=
+                            (*next)->size() + terrain::wire::framePrefixSize((*next)->size());
+                    } else if (e->has_deform_reply() && on_reply) {
+                        const auto& r = e->deform_reply();
+                        terrain::client::DeformAnswer a;
+                        a.request_id = r.request_id();
+                        a.accepted =
+                            r.result_case() == terrain::wire::pb::DeformReply::kAcceptedSeq;
+                        a.seq = r.accepted_seq();
+                        on_reply(a);
+                    } else if (e->has_disconnect()) {
+                        return fail("disconnected: " + e->disconnect().message());
+                    }
+                }
+                read();
+            });
+    }
+
+    asio::ip::tcp::socket socket_;
+    terrain::wire::FrameReader reader_{std::size_t{64} << 20};
+    std::vector<std::uint8_t> out_;
+    std::vector<std::uint8_t> busy_;
+    bool writing_ = false;
+    bool joined_ = false;
+    bool failed_ = false;
+    std::uint32_t next_id_ = 1;
+    std::uint64_t op_bytes_ = 0;
+};
+
+} // namespace
+
 int main(int argc, char** argv) {
     using namespace terrain;
     CLI::App app{"battle_feed: canonical ops into a terrain-server, windowed"};
@@ -29,6 +138,7 @@ int main(int argc, char** argv) {
     int window = 64;
     double rate = 0.0;
     std::string sends_path;
+    bool light = false;
     app.add_option("--host", host);
     app.add_option("--port", port)->required();
     app.add_option("--token", token, "a deformer token")->required();
@@ -40,6 +150,7 @@ int main(int argc, char** argv) {
         "--sends", sends_path,
         "write 'seq nanoseconds' (steady clock) of each accepted op's request (load_viewers "
         "merge)");
+    app.add_flag("--light", light, "keep no replica: send, read replies, skip the ops");
     CLI11_PARSE(app, argc, argv);
 
     std::ifstream file(ops_path);
@@ -60,6 +171,7 @@ int main(int argc, char** argv) {
     config.token = token;
     config.client_name = "battle_feed";
     auto connection = std::make_shared<client::Connection>(io, config, replica);
+    std::optional<LightDeformer> lightweight;
     std::size_t sent = 0;
     std::size_t answered = 0;
     std::size_t accepted = 0;
@@ -83,7 +195,12 @@ int main(int argc, char** argv) {
             last_accepted = std::max(last_accepted, a.seq);
         }
     };
-    connection->start();
+    if (light) {
+        lightweight.emplace(io, host, port, token);
+        lightweight->on_reply = connection->on_deform_reply;
+    } else
+        connection->start();
+    const auto joined = [&] { return light ? lightweight->joined() : connection->synced(); };
     const auto start = std::chrono::steady_clock::now();
     const auto elapsed = [&] {
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -91,7 +208,9 @@ int main(int argc, char** argv) {
     std::optional<std::chrono::steady_clock::time_point> paced_from;
     while (elapsed() < 600.0) {
         io.run_for(std::chrono::milliseconds(1));
-        if (!connection->synced())
+        if (light && lightweight->failed())
+            break;
+        if (!joined())
             continue;
         if (!paced_from)
             paced_from = std::chrono::steady_clock::now(); // joined: the pacing starts
@@ -104,13 +223,16 @@ int main(int argc, char** argv) {
         while (sent < ops->size() && sent - answered < static_cast<std::size_t>(window) &&
                sent < paced_limit()) {
             sent_at[sent] = std::chrono::steady_clock::now();
-            connection->requestDeform((*ops)[sent++]);
+            if (light)
+                lightweight->request((*ops)[sent++]);
+            else
+                connection->requestDeform((*ops)[sent++]);
         }
-        if (answered == ops->size() && replica.seq() >= last_accepted)
+        if (answered == ops->size() && (light || replica.seq() >= last_accepted))
             break;
     }
     const double seconds = elapsed();
-    const bool ok = answered == ops->size() && connection->synced();
+    const bool ok = answered == ops->size() && (light || connection->synced());
     std::sort(latency_ms.begin(), latency_ms.end());
     const auto rank = [&](double q) {
         return latency_ms.empty()
@@ -126,12 +248,16 @@ int main(int argc, char** argv) {
         ops->size(), accepted, answered - accepted, seconds,
         static_cast<double>(ops->size()) / seconds, rank(0.5), rank(0.99),
         latency_ms.empty() ? 0.0 : latency_ms.back(),
-        accepted > 0
-            ? static_cast<double>(connection->stats().op_bytes_in) / static_cast<double>(accepted)
-            : 0.0,
+        accepted > 0 ? static_cast<double>(
+                           light ? lightweight->opBytes() : connection->stats().op_bytes_in) /
+                           static_cast<double>(accepted)
+                     : 0.0,
         static_cast<unsigned long long>(connection->stats().op_batches),
-        static_cast<unsigned long long>(replica.seq()),
-        static_cast<unsigned long long>(replica.worldHash()), ok ? "" : " (INCOMPLETE)");
+        static_cast<unsigned long long>(light ? last_accepted : replica.seq()),
+        static_cast<unsigned long long>(replica.worldHash()),
+        !ok     ? " (INCOMPLETE)"
+        : light ? " (light: no replica, nothing verified)"
+                : "");
     if (!sends_path.empty()) {
         std::ofstream sends(sends_path);
         for (const auto& [seq, at] : accepted_sends)
