@@ -32,12 +32,35 @@ constexpr std::array<std::int64_t, 4> catmullRom432(std::int64_t a) {
         36 * a + 24 * a * a - 3 * a * a * a, -6 * a * a + a * a * a};
 }
 
+/// Catmull-Rom weights at the five Greville points (a = 0, 1, 3, 5, 6). At the ends the surface
+/// is the sample itself ({0, 432, 0, 0} and {0, 0, 432, 0}), so those take no products.
+constexpr std::array<std::array<std::int64_t, 4>, bspline::kControls> kGrevilleWeights = {
+    catmullRom432(bspline::kGrevilleSixths[0]), catmullRom432(bspline::kGrevilleSixths[1]),
+    catmullRom432(bspline::kGrevilleSixths[2]), catmullRom432(bspline::kGrevilleSixths[3]),
+    catmullRom432(bspline::kGrevilleSixths[4])};
+static_assert(kGrevilleWeights[0] == std::array<std::int64_t, 4>{0, 432, 0, 0});
+static_assert(kGrevilleWeights[4] == std::array<std::int64_t, 4>{0, 0, 432, 0});
+
+/// bspline::kInterpolation times v (rows 0 and 4 are unit rows times 120; the zeros are skipped,
+/// every other product is the same, so the sums are exactly the full product's).
+constexpr std::array<std::int64_t, bspline::kControls>
+interpolate(std::int64_t v0, std::int64_t v1, std::int64_t v2, std::int64_t v3, std::int64_t v4) {
+    constexpr auto& k = bspline::kInterpolation;
+    static_assert(k[0][0] == 120 && k[0][1] == 0 && k[0][2] == 0 && k[0][3] == 0 && k[0][4] == 0);
+    static_assert(k[4][0] == 0 && k[4][1] == 0 && k[4][2] == 0 && k[4][3] == 0 && k[4][4] == 120);
+    return {
+        k[0][0] * v0, k[1][0] * v0 + k[1][1] * v1 + k[1][2] * v2 + k[1][3] * v3 + k[1][4] * v4,
+        k[2][0] * v0 + k[2][1] * v1 + k[2][2] * v2 + k[2][3] * v3 + k[2][4] * v4,
+        k[3][0] * v0 + k[3][1] * v1 + k[3][2] * v2 + k[3][3] * v3 + k[3][4] * v4, k[4][4] * v4};
+}
+
 /// What a patch's controls are coded against: the controls that make the spline interpolate the
 /// Catmull-Rom surface through the 4 x 4 samples around the cell (clamped to the grid) at the
 /// Greville points, as ops make patches interpolate their craters there. A crater's patch
 /// follows the samples it was made with, so the residual is its detail beyond that smooth
 /// surface. Integer arithmetic throughout (heights in 1/48 quanta, as deformation.cpp), so both
-/// sides predict the same numbers.
+/// sides predict the same numbers. Every patch of a join goes through here twice (encode and
+/// decode): products by 0 and 1 are left out.
 std::array<std::int64_t, kPatchControls>
 predictControls(const Terrain& t, std::int32_t cx, std::int32_t cy) {
     constexpr int n = bspline::kControls;
@@ -48,43 +71,46 @@ predictControls(const Terrain& t, std::int32_t cx, std::int32_t cy) {
         for (int i = 0; i < 4; ++i)
             s[static_cast<std::size_t>(j)][static_cast<std::size_t>(i)] =
                 t.sample(std::clamp(cx - 1 + i, 0, last_x), std::clamp(cy - 1 + j, 0, last_y));
-    // the surface at the Greville points, 1/48 quanta
+    // the surface at the Greville points, 1/48 quanta: 432 * the samples interpolated in v
+    // (column), then in u, one rounding
     std::array<std::int64_t, kPatchControls> h48{};
-    for (int j = 0; j < n; ++j) {
-        const auto wv = catmullRom432(bspline::kGrevilleSixths[static_cast<std::size_t>(j)]);
-        std::array<std::int64_t, 4> column{}; // 432 * the samples interpolated in v
-        for (std::size_t i = 0; i < 4; ++i)
-            for (std::size_t k = 0; k < 4; ++k)
-                column[i] += wv[k] * s[k][i];
-        for (int i = 0; i < n; ++i) {
-            const auto wu = catmullRom432(bspline::kGrevilleSixths[static_cast<std::size_t>(i)]);
-            std::int64_t sum = 0;
-            for (std::size_t k = 0; k < 4; ++k)
-                sum += wu[k] * column[k];
-            h48[static_cast<std::size_t>(j * n + i)] = roundDiv(48 * sum, 432 * 432);
+    for (std::size_t j = 0; j < static_cast<std::size_t>(n); ++j) {
+        std::array<std::int64_t, 4> column{};
+        if (j == 0 || j == static_cast<std::size_t>(n) - 1) {
+            const std::size_t row = j == 0 ? 1 : 2;
+            for (std::size_t i = 0; i < 4; ++i)
+                column[i] = 432 * s[row][i];
+        } else {
+            const auto& wv = kGrevilleWeights[j];
+            for (std::size_t i = 0; i < 4; ++i)
+                column[i] = wv[0] * s[0][i] + wv[1] * s[1][i] + wv[2] * s[2][i] + wv[3] * s[3][i];
+        }
+        std::int64_t* h = &h48[j * static_cast<std::size_t>(n)];
+        h[0] = roundDiv(48 * 432 * column[1], 432 * 432);
+        h[n - 1] = roundDiv(48 * 432 * column[2], 432 * 432);
+        for (std::size_t i = 1; i + 1 < static_cast<std::size_t>(n); ++i) {
+            const auto& wu = kGrevilleWeights[i];
+            const std::int64_t sum =
+                wu[0] * column[0] + wu[1] * column[1] + wu[2] * column[2] + wu[3] * column[3];
+            h[i] = roundDiv(48 * sum, 432 * 432);
         }
     }
     // interpolated in u, then in v (every product below 2^53), one rounding
     std::array<std::int64_t, kPatchControls> rows{};
-    for (int j = 0; j < n; ++j)
-        for (int i = 0; i < n; ++i)
-            for (int k = 0; k < n; ++k)
-                rows[static_cast<std::size_t>(j * n + i)] +=
-                    bspline::kInterpolation[static_cast<std::size_t>(i)]
-                                           [static_cast<std::size_t>(k)] *
-                    h48[static_cast<std::size_t>(j * n + k)];
+    for (std::size_t j = 0; j < static_cast<std::size_t>(n); ++j) {
+        const std::int64_t* h = &h48[j * static_cast<std::size_t>(n)];
+        const auto r = interpolate(h[0], h[1], h[2], h[3], h[4]);
+        std::copy(r.begin(), r.end(), rows.begin() + static_cast<std::ptrdiff_t>(j) * n);
+    }
     std::array<std::int64_t, kPatchControls> out{};
     constexpr std::int64_t kDivisor =
         bspline::kInterpolationScale * bspline::kInterpolationScale * (48 / kControlScale);
-    for (int j = 0; j < n; ++j)
-        for (int i = 0; i < n; ++i) {
-            std::int64_t sum = 0;
-            for (int k = 0; k < n; ++k)
-                sum += bspline::kInterpolation[static_cast<std::size_t>(j)]
-                                              [static_cast<std::size_t>(k)] *
-                       rows[static_cast<std::size_t>(k * n + i)];
-            out[static_cast<std::size_t>(j * n + i)] = roundDiv(sum, kDivisor);
-        }
+    for (std::size_t i = 0; i < static_cast<std::size_t>(n); ++i) {
+        const auto c =
+            interpolate(rows[i], rows[n + i], rows[2 * n + i], rows[3 * n + i], rows[4 * n + i]);
+        for (std::size_t j = 0; j < static_cast<std::size_t>(n); ++j)
+            out[j * static_cast<std::size_t>(n) + i] = roundDiv(c[j], kDivisor);
+    }
     return out;
 }
 
