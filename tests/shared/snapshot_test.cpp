@@ -32,6 +32,30 @@ TEST(Snapshot, roundTripsToTheSameHashPatchesAndSamples) {
     EXPECT_EQ(encodeSnapshot(d->terrain, 1234), bytes);
 }
 
+// what a server streams through its compressor: the same bytes, in pieces of any size, and a
+// size known before the first (the zstd frame's pledged content size)
+TEST(Snapshot, inPiecesItIsTheSameBytesAndItsSizeIsKnownBeforehand) {
+    const Terrain t = cratered();
+    ASSERT_GT(t.patchCount(), 0u);
+    const auto whole = encodeSnapshot(t, 77);
+    EXPECT_EQ(snapshotBytes(t), whole.size());
+    for (std::size_t piece : {std::size_t{1}, std::size_t{5000}, std::size_t{1} << 20}) {
+        std::vector<std::uint8_t> joined;
+        std::size_t pieces = 0;
+        encodeSnapshotTo(
+            t, 77,
+            [&](std::span<const std::uint8_t> p) {
+                joined.insert(joined.end(), p.begin(), p.end());
+                ++pieces;
+            },
+            piece);
+        EXPECT_EQ(joined, whole) << "pieces of " << piece;
+        if (piece == 1) {
+            EXPECT_GT(pieces, static_cast<std::size_t>(t.spec().tileCount()));
+        }
+    }
+}
+
 TEST(Snapshot, everyTruncationIsRefused) {
     const Terrain t = cratered();
     const auto bytes = encodeSnapshot(t, 1);

@@ -17,25 +17,60 @@ Error truncated(const char* what) {
 
 } // namespace
 
-std::vector<std::uint8_t> encodeSnapshot(const Terrain& terrain, std::uint64_t sequence) {
+std::uint64_t snapshotBytes(const Terrain& terrain) {
     const WorldSpec& s = terrain.spec();
-    std::vector<std::uint8_t> out(kMagic, kMagic + 4);
-    detail::putU32(out, kSnapshotVersion);
+    constexpr std::uint64_t kHeader = 4 + 4 + 5 * 4 + 8 + 4;
+    constexpr std::uint64_t kTileFixed =
+        4 + 8 + 2 * std::uint64_t{kTileVertices} * kTileVertices * 4 + 4;
+    constexpr std::uint64_t kPatch = 2 + 4 * std::uint64_t{kPatchControls};
+    return kHeader + static_cast<std::uint64_t>(s.tileCount()) * kTileFixed +
+           kPatch * terrain.patchCount() + 16;
+}
+
+void encodeSnapshotTo(
+    const Terrain& terrain,
+    std::uint64_t sequence,
+    const SnapshotSink& sink,
+    std::size_t piece_bytes) {
+    const WorldSpec& s = terrain.spec();
+    XXH3_state_t* const checksum = XXH3_createState();
+    XXH3_64bits_reset(checksum);
+    std::vector<std::uint8_t> piece(kMagic, kMagic + 4);
+    piece.reserve(piece_bytes + (std::size_t{1} << 16));
+    const auto flush = [&] {
+        XXH3_64bits_update(checksum, piece.data(), piece.size());
+        sink(piece);
+        piece.clear();
+    };
+    detail::putU32(piece, kSnapshotVersion);
     for (std::int32_t v : {s.width, s.height, s.spacing, s.units_per_metre, s.patch_tolerance})
-        detail::putI32(out, v);
-    detail::putU64(out, sequence);
-    detail::putU32(out, static_cast<std::uint32_t>(s.tileCount()));
+        detail::putI32(piece, v);
+    detail::putU64(piece, sequence);
+    detail::putU32(piece, static_cast<std::uint32_t>(s.tileCount()));
     for (std::int32_t tile = 0; tile < s.tileCount(); ++tile) {
-        const std::size_t at = out.size();
-        detail::putU32(out, 0); // length, patched below
-        terrain.appendTileBytes(tile, out);
-        const auto length = static_cast<std::uint32_t>(out.size() - at - 4);
+        const std::size_t at = piece.size();
+        detail::putU32(piece, 0); // length, patched below
+        terrain.appendTileBytes(tile, piece);
+        const auto length = static_cast<std::uint32_t>(piece.size() - at - 4);
         for (int b = 0; b < 4; ++b)
-            out[at + static_cast<std::size_t>(b)] = static_cast<std::uint8_t>(length >> (8 * b));
+            piece[at + static_cast<std::size_t>(b)] = static_cast<std::uint8_t>(length >> (8 * b));
+        if (piece.size() >= piece_bytes)
+            flush();
     }
-    detail::putU64(out, terrain.worldHash());
+    detail::putU64(piece, terrain.worldHash());
     // the checksum covers what the world hash does not: the header and the sequence number
-    detail::putU64(out, XXH3_64bits(out.data(), out.size()));
+    XXH3_64bits_update(checksum, piece.data(), piece.size());
+    detail::putU64(piece, XXH3_64bits_digest(checksum));
+    XXH3_freeState(checksum);
+    sink(piece);
+}
+
+std::vector<std::uint8_t> encodeSnapshot(const Terrain& terrain, std::uint64_t sequence) {
+    std::vector<std::uint8_t> out;
+    out.reserve(static_cast<std::size_t>(snapshotBytes(terrain)));
+    encodeSnapshotTo(terrain, sequence, [&](std::span<const std::uint8_t> piece) {
+        out.insert(out.end(), piece.begin(), piece.end());
+    });
     return out;
 }
 

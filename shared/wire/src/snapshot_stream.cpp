@@ -1,10 +1,13 @@
+#include <terrain/assert.h>
 #include <terrain/genesis_delta.h>
+#include <terrain/snapshot.h>
 #include <terrain/wire/compression.h>
 #include <terrain/wire/snapshot_stream.h>
 
 #include <zstd.h>
 
 #include <algorithm>
+#include <memory>
 #include <string>
 
 namespace terrain::wire {
@@ -57,11 +60,69 @@ SnapshotFrames chunked(
     return out;
 }
 
+/// The same frames as chunked(encodeSnapshot()), without the raw snapshot ever held whole: its
+/// pieces go through a zstd stream (one frame, its content size pledged), and each chunk's worth
+/// of output becomes a frame as it fills.
+SnapshotFrames
+streamedSnapshot(const Terrain& terrain, std::uint64_t seq, std::size_t chunk_bytes) {
+    chunk_bytes = std::max<std::size_t>(chunk_bytes, 1);
+    const std::uint64_t raw_size = snapshotBytes(terrain);
+    const std::unique_ptr<ZSTD_CCtx, decltype(&ZSTD_freeCCtx)> ctx(
+        ZSTD_createCCtx(), ZSTD_freeCCtx);
+    ZSTD_CCtx_setParameter(ctx.get(), ZSTD_c_compressionLevel, kDefaultCompressionLevel);
+    ZSTD_CCtx_setPledgedSrcSize(ctx.get(), raw_size);
+    SnapshotFrames out;
+    out.frames.emplace_back(); // SnapshotBegin, once the totals are known
+    std::vector<std::uint8_t> chunk(chunk_bytes);
+    ZSTD_outBuffer buffer{chunk.data(), chunk.size(), 0};
+    std::uint32_t chunks = 0;
+    std::uint64_t compressed = 0;
+    const auto emit = [&] {
+        pb::Envelope envelope;
+        pb::SnapshotChunk* c = envelope.mutable_snapshot_chunk();
+        c->set_index(chunks++);
+        c->set_data(chunk.data(), buffer.pos);
+        compressed += buffer.pos;
+        out.frames.push_back(encodeFrame(envelope));
+        buffer.pos = 0;
+    };
+    const auto feed = [&](std::span<const std::uint8_t> piece, ZSTD_EndDirective mode) {
+        ZSTD_inBuffer in{piece.data(), piece.size(), 0};
+        for (;;) {
+            const std::size_t left = ZSTD_compressStream2(ctx.get(), &buffer, &in, mode);
+            TERRAIN_ASSERT(!ZSTD_isError(left)); // fails only on bad parameters or a wrong pledge
+            if (buffer.pos == buffer.size)
+                emit();
+            if (mode == ZSTD_e_end ? left == 0 : in.pos == in.size)
+                break;
+        }
+    };
+    encodeSnapshotTo(
+        terrain, seq, [&](std::span<const std::uint8_t> piece) { feed(piece, ZSTD_e_continue); });
+    feed({}, ZSTD_e_end);
+    if (buffer.pos > 0)
+        emit();
+    out.seq = seq;
+    out.world_hash = terrain.worldHash();
+    out.raw_bytes = raw_size;
+    out.compressed_bytes = compressed;
+    pb::Envelope envelope;
+    pb::SnapshotBegin* begin = envelope.mutable_snapshot_begin();
+    begin->set_seq(seq);
+    begin->set_world_hash(out.world_hash);
+    begin->set_raw_bytes(raw_size);
+    begin->set_compressed_bytes(compressed);
+    begin->set_chunk_count(chunks);
+    begin->set_genesis_hash(0);
+    out.frames.front() = encodeFrame(envelope);
+    return out;
+}
+
 } // namespace
 
 SnapshotFrames
 buildSnapshotFrames(const Terrain& terrain, std::uint64_t seq, std::size_t chunk_bytes) {
-    return chunked(terrain, seq, 0, encodeSnapshot(terrain, seq), chunk_bytes);
+    return streamedSnapshot(terrain, seq, chunk_bytes);
 }
 
 SnapshotFrames buildGenesisDeltaFrames(

@@ -15,6 +15,7 @@
 #include <terrain/terrain.h>
 
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -25,6 +26,21 @@ namespace terrain {
 inline constexpr std::uint32_t kSnapshotVersion = 2;
 
 std::vector<std::uint8_t> encodeSnapshot(const Terrain& terrain, std::uint64_t sequence);
+
+/// The size of encodeSnapshot()'s bytes, without encoding them.
+std::uint64_t snapshotBytes(const Terrain& terrain);
+
+/// Receives a snapshot's bytes in order, a piece at a time.
+using SnapshotSink = std::function<void(std::span<const std::uint8_t>)>;
+
+/// encodeSnapshot()'s bytes handed to `sink` in pieces of about `piece_bytes`, so that the whole
+/// is never held (a server compresses them as they come: the raw snapshot of a default map is
+/// 35 MB, its compressed form a few). snapshotBytes() gives the total beforehand.
+void encodeSnapshotTo(
+    const Terrain& terrain,
+    std::uint64_t sequence,
+    const SnapshotSink& sink,
+    std::size_t piece_bytes = std::size_t{1} << 20);
 
 struct DecodedSnapshot {
     Terrain terrain;
