@@ -5,8 +5,10 @@
 // snapshot). The world: the default map after --shots battle shots (battle_bench's battle), or
 // srtm_n44w072 after --craters random craters of radius 50-400 m (client_join_bench's). The
 // server starts at that state with no op log, as a server long past its first ops: every join
-// is by snapshot or delta. Per kind: the first join (cold: the server builds its cache on its
-// snapshot thread) and --joins more (warm: the cache is reused).
+// is by snapshot or delta. With --keep-log the server made those ops itself and still holds them,
+// so the client with the genesis resumes from seq 0: it gets the ops and applies them. Per kind:
+// the first join (cold: the server builds its cache on its snapshot thread) and --joins more
+// (warm: the cache is reused).
 // Exit status: 0 when every join verified; 1 when one did not; 2 on a bad option or input.
 
 #include "support/bench_facts.h"
@@ -44,6 +46,7 @@ struct JoinResult {
     std::uint64_t bytes_in = 0;
     std::uint64_t snapshot_bytes = 0;
     bool delta = false;
+    bool resumed = false;
 };
 
 /// One client joins through `port`; with `genesis`, it starts from the map it ships.
@@ -68,7 +71,7 @@ JoinResult join(
     while (bench::msSince(start) < 60000.0) {
         io.run_for(std::chrono::milliseconds(1));
         if (replica.seq() == seq && replica.worldHash() == hash &&
-            connection->stats().snapshots > 0) {
+            (connection->stats().snapshots > 0 || connection->stats().resumes > 0)) {
             r.ms = bench::msSince(start);
             break;
         }
@@ -76,6 +79,7 @@ JoinResult join(
     r.bytes_in = connection->stats().bytes_in;
     r.snapshot_bytes = connection->stats().snapshot_bytes;
     r.delta = connection->stats().genesis_deltas > 0;
+    r.resumed = connection->stats().resumes > 0;
     connection->stop();
     io.run_for(std::chrono::milliseconds(1));
     return r;
@@ -93,6 +97,7 @@ int main(int argc, char** argv) {
     double rtt_ms = 40.0;
     int warm_joins = 3;
     std::string out;
+    bool keep_log = false;
     app.add_option("--world", world, "battle | srtm")->check(CLI::IsMember({"battle", "srtm"}));
     app.add_option("--dem-dir", dem_dir, "folder holding srtm_n44w072/");
     app.add_option("--shots", shots, "battle shots on the default map")
@@ -103,6 +108,9 @@ int main(int argc, char** argv) {
     app.add_option("--joins", warm_joins, "warm joins per kind and link")
         ->check(CLI::NonNegativeNumber);
     app.add_option("--out", out, "JSON report");
+    app.add_flag(
+        "--keep-log", keep_log,
+        "the server applies the ops itself and keeps them: the genesis holder resumes from 0");
     CLI11_PARSE(app, argc, argv);
 
     // the world and its genesis
@@ -125,6 +133,8 @@ int main(int argc, char** argv) {
     }
     Terrain grown = *genesis;
     std::uint64_t applied = 0;
+    std::vector<DeformOp> history; // what was applied, in order
+
     const auto grow_start = bench::Clock::now();
     if (world == "srtm") {
         CraterSeries series;
@@ -133,8 +143,10 @@ int main(int argc, char** argv) {
         series.min_radius = 50.0;
         series.max_radius = 400.0;
         for (const OpRequest& r : randomCraters(grown.spec(), series))
-            if (auto op = quantizeOp(r, grown.spec()); op && grown.apply(*op))
+            if (auto op = quantizeOp(r, grown.spec()); op && grown.apply(*op)) {
                 ++applied;
+                history.push_back(*op);
+            }
     } else {
         BattleOptions o; // battle_bench's battle: the zone at the map's centre
         o.zone_x = grown.spec().extentX() / 2;
@@ -144,8 +156,10 @@ int main(int argc, char** argv) {
             const BattleShot shot = generator.next(grown);
             if (!shot.crater)
                 continue;
-            if (auto op = quantizeOp(*shot.crater, grown.spec()); op && grown.apply(*op))
+            if (auto op = quantizeOp(*shot.crater, grown.spec()); op && grown.apply(*op)) {
                 ++applied;
+                history.push_back(*op);
+            }
         }
     }
     const double grow_ms = bench::msSince(grow_start);
@@ -158,6 +172,16 @@ int main(int argc, char** argv) {
     server::ServerThreadOptions options;
     options.config.token_secret = testing::testSecret();
     options.seq = applied;
+    if (keep_log) { // from the genesis, the ops in the server's log
+        grown = *genesis;
+        options.seq = 0;
+        options.config.op_log_capacity = std::max<std::size_t>(8192, history.size() + 1);
+        options.prepare = [&history](server::Authority& authority) {
+            for (const DeformOp& op : history)
+                if (!authority.apply(op))
+                    std::fprintf(stderr, "join_link_bench: the server refused an op\n");
+        };
+    }
     auto server = server::ServerThread::start(std::move(grown), std::move(options));
     if (!server) {
         std::fprintf(stderr, "join_link_bench: %s\n", server.error().message.c_str());
@@ -182,7 +206,7 @@ int main(int argc, char** argv) {
                 const JoinResult r = join(
                     linked ? relay.port() : direct, player++, shipped ? genesis : none, applied,
                     hash);
-                if (r.ms < 0.0 || r.delta != shipped) {
+                if (r.ms < 0.0 || (keep_log ? r.resumed : r.delta) != shipped) {
                     std::fprintf(
                         stderr, "join_link_bench: FAIL: a join did not verify (%s, %s)\n",
                         linked ? "link" : "loopback", shipped ? "genesis" : "whole");
@@ -198,11 +222,13 @@ int main(int argc, char** argv) {
             std::printf(
                 "  %-9s %-7s join: cold %6.0f ms, warm p50 %6.0f ms (max %6.0f); %.2f MiB in "
                 "(snapshot %.2f MiB)\n",
-                linked ? "link" : "loopback", shipped ? "genesis" : "whole", cold.ms, w.p50, w.max,
-                bench::mib(last.bytes_in), bench::mib(last.snapshot_bytes));
+                linked ? "link" : "loopback", shipped ? (keep_log ? "resume" : "genesis") : "whole",
+                cold.ms, w.p50, w.max, bench::mib(last.bytes_in), bench::mib(last.snapshot_bytes));
             runs.push_back(
                 {{"link", linked ? "simulated" : "loopback"},
-                 {"client", shipped ? "holds the genesis (delta)" : "no genesis (whole snapshot)"},
+                 {"client", shipped ? (keep_log ? "holds the genesis (resumes from seq 0)"
+                                                : "holds the genesis (delta)")
+                                    : "no genesis (whole snapshot)"},
                  {"cold_ms", cold.ms},
                  {"warm_ms", {{"samples", w.n}, {"p50", w.p50}, {"max", w.max}, {"min", w.min}}},
                  {"bytes_in", last.bytes_in},
@@ -218,6 +244,7 @@ int main(int argc, char** argv) {
         {"cpu", bench::cpuModel()},
         {"world", name},
         {"ops_applied", applied},
+        {"server_keeps_log", keep_log},
         {"patches", patches},
         {"link", {{"mbit_per_second", rate_mbit}, {"rtt_ms", rtt_ms}}},
         {"runs", runs},
