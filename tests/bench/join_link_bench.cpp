@@ -55,7 +55,8 @@ JoinResult join(
     std::uint64_t player,
     const std::optional<Terrain>& genesis,
     std::uint64_t seq,
-    std::uint64_t hash) {
+    std::uint64_t hash,
+    std::uint64_t max_replay_ops) {
     asio::io_context io;
     client::Replica replica;
     if (genesis && !replica.loadGenesis(*genesis))
@@ -64,6 +65,7 @@ JoinResult join(
     config.port = port;
     config.token = testing::token(player, server::Role::kViewer);
     config.reconnect = false;
+    config.max_replay_ops = max_replay_ops;
     auto connection = std::make_shared<client::Connection>(io, config, replica);
     const auto start = bench::Clock::now();
     connection->start();
@@ -85,6 +87,11 @@ JoinResult join(
     return r;
 }
 
+/// How the client with the genesis joins: "resume" (replays the log) or "genesis" (a delta).
+const char* joinKind(bool keep_log, std::uint64_t max_replay_ops, std::uint64_t applied) {
+    return keep_log && (max_replay_ops == 0 || applied <= max_replay_ops) ? "resume" : "genesis";
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
@@ -98,6 +105,7 @@ int main(int argc, char** argv) {
     int warm_joins = 3;
     std::string out;
     bool keep_log = false;
+    std::uint64_t max_replay_ops = 0;
     app.add_option("--world", world, "battle | srtm")->check(CLI::IsMember({"battle", "srtm"}));
     app.add_option("--dem-dir", dem_dir, "folder holding srtm_n44w072/");
     app.add_option("--shots", shots, "battle shots on the default map")
@@ -111,6 +119,9 @@ int main(int argc, char** argv) {
     app.add_flag(
         "--keep-log", keep_log,
         "the server applies the ops itself and keeps them: the genesis holder resumes from 0");
+    app.add_option(
+        "--max-replay-ops", max_replay_ops,
+        "the clients' ConnectionConfig::max_replay_ops (0: no limit): past it, a delta");
     CLI11_PARSE(app, argc, argv);
 
     // the world and its genesis
@@ -205,8 +216,9 @@ int main(int argc, char** argv) {
             for (int i = 0; i <= warm_joins; ++i) {
                 const JoinResult r = join(
                     linked ? relay.port() : direct, player++, shipped ? genesis : none, applied,
-                    hash);
-                if (r.ms < 0.0 || (keep_log ? r.resumed : r.delta) != shipped) {
+                    hash, max_replay_ops);
+                const bool replays = keep_log && (max_replay_ops == 0 || applied <= max_replay_ops);
+                if (r.ms < 0.0 || (replays ? r.resumed && !r.delta : r.delta) != shipped) {
                     std::fprintf(
                         stderr, "join_link_bench: FAIL: a join did not verify (%s, %s)\n",
                         linked ? "link" : "loopback", shipped ? "genesis" : "whole");
@@ -222,13 +234,14 @@ int main(int argc, char** argv) {
             std::printf(
                 "  %-9s %-7s join: cold %6.0f ms, warm p50 %6.0f ms (max %6.0f); %.2f MiB in "
                 "(snapshot %.2f MiB)\n",
-                linked ? "link" : "loopback", shipped ? (keep_log ? "resume" : "genesis") : "whole",
-                cold.ms, w.p50, w.max, bench::mib(last.bytes_in), bench::mib(last.snapshot_bytes));
+                linked ? "link" : "loopback",
+                shipped ? joinKind(keep_log, max_replay_ops, applied) : "whole", cold.ms, w.p50,
+                w.max, bench::mib(last.bytes_in), bench::mib(last.snapshot_bytes));
             runs.push_back(
                 {{"link", linked ? "simulated" : "loopback"},
-                 {"client", shipped ? (keep_log ? "holds the genesis (resumes from seq 0)"
-                                                : "holds the genesis (delta)")
-                                    : "no genesis (whole snapshot)"},
+                 {"client", shipped ? std::string("holds the genesis: ") +
+                                          joinKind(keep_log, max_replay_ops, applied)
+                                    : std::string("no genesis: whole")},
                  {"cold_ms", cold.ms},
                  {"warm_ms", {{"samples", w.n}, {"p50", w.p50}, {"max", w.max}, {"min", w.min}}},
                  {"bytes_in", last.bytes_in},
@@ -245,6 +258,7 @@ int main(int argc, char** argv) {
         {"world", name},
         {"ops_applied", applied},
         {"server_keeps_log", keep_log},
+        {"max_replay_ops", max_replay_ops},
         {"patches", patches},
         {"link", {{"mbit_per_second", rate_mbit}, {"rtt_ms", rtt_ms}}},
         {"runs", runs},

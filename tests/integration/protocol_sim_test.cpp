@@ -50,6 +50,7 @@ struct Scenario {
     double op_interval = 0.01; ///< seconds between the deformer's requests
     int viewers = 2;
     double late_join_at = 0.4; ///< a viewer that ships the map joins then (negative: none)
+    std::uint64_t late_max_replay_ops = 0; ///< that viewer's ConnectionConfig::max_replay_ops
     LinkSpec link;             ///< every client's
     LinkSpec victim_link;      ///< viewer 0's
     std::uint64_t cut_viewer_at = 0;
@@ -69,6 +70,7 @@ struct Outcome {
     std::uint64_t steps = 0;
     server::ServerStats stats;
     client::ConnectionStats victim;
+    client::ConnectionStats late;
     std::size_t victim_drops = 0;
     std::vector<std::uint64_t> accepted_seqs;
     std::string why; ///< what did not converge
@@ -100,6 +102,7 @@ Outcome runScenario(const Scenario& s) {
     };
 
     std::vector<std::unique_ptr<SimClient>> clients;
+    SimClient* late_client = nullptr;
     auto viewer = [&](int i, LinkSpec link) -> SimClient& {
         clients.push_back(std::make_unique<SimClient>(
             world, hub, clientConfig(100 + i, Role::kViewer), link, "viewer" + std::to_string(i)));
@@ -117,7 +120,11 @@ Outcome runScenario(const Scenario& s) {
     deformer.connect();
     if (s.late_join_at >= 0)
         world.at(s.late_join_at, [&] {
-            SimClient& late = viewer(99, s.link);
+            client::ConnectionConfig c = clientConfig(199, Role::kViewer);
+            c.max_replay_ops = s.late_max_replay_ops;
+            clients.push_back(std::make_unique<SimClient>(world, hub, c, s.link, "late"));
+            late_client = clients.back().get();
+            SimClient& late = *late_client;
             EXPECT_TRUE(late.replica.loadGenesis(simMap()).ok());
             late.connect();
         });
@@ -163,6 +170,8 @@ Outcome runScenario(const Scenario& s) {
     out.stats = hub.stats();
     out.victim = victim.machine.stats();
     out.victim_drops = victim.drops.size();
+    if (late_client)
+        out.late = late_client->machine.stats();
     for (const client::DeformAnswer& a : deformer.answers)
         if (a.accepted)
             out.accepted_seqs.push_back(a.seq);
@@ -182,6 +191,24 @@ TEST(ProtocolSim, ClientsJoinFollowAndConvergeOverA20MbitLink) {
     EXPECT_EQ(out.stats.genesis_deltas_sent, 1u);
     EXPECT_EQ(out.stats.snapshots_sent, 3u);
     EXPECT_EQ(out.stats.resyncs, 0u);
+}
+
+// A client that ships the map joins while the server still holds every op: it resumes from seq
+// 0 and replays them, unless they are more than its max_replay_ops; then it asks for a snapshot
+// at once and gets the genesis delta, skipping the ops already on their way.
+TEST(ProtocolSim, AGenesisHolderReplaysTheLogOrAsksForTheDeltaPastItsReplayLimit) {
+    Scenario s;
+    s.late_join_at = 1.0; // about 80 ops in, all in the log
+    const Outcome replayed = runScenario(s);
+    ASSERT_TRUE(replayed.converged) << replayed.why;
+    EXPECT_EQ(replayed.late.resumes, 1u);
+    EXPECT_EQ(replayed.late.snapshots, 0u);
+    s.late_max_replay_ops = 10;
+    const Outcome limited = runScenario(s);
+    ASSERT_TRUE(limited.converged) << limited.why;
+    EXPECT_EQ(limited.late.genesis_deltas, 1u);
+    EXPECT_EQ(limited.stats.genesis_deltas_sent, 1u);
+    EXPECT_EQ(limited.hash, replayed.hash);
 }
 
 TEST(ProtocolSim, ARunIsAPureFunctionOfItsInputs) {

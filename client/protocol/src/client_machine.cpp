@@ -185,7 +185,12 @@ void ClientMachine::onWelcome(const pb::Welcome& w) {
     if (w.resume()) {
         ++stats_.resumes;
         phase_ = Phase::kLive;
-        if (replica_.diverged()) // resumed from the verified seq: the rest is suspect
+        const std::uint64_t from = replica_.diverged() ? replica_.verifiedSeq() : replica_.seq();
+        const bool too_long = config_.max_replay_ops != 0 && w.server_seq() > from &&
+                              w.server_seq() - from > config_.max_replay_ops;
+        // resumed from the verified seq: the rest is suspect; or more ops than this client
+        // replays faster than it downloads a snapshot (the ops on their way are skipped)
+        if (replica_.diverged() || too_long)
             requestSnapshot();
     }
 }

@@ -36,6 +36,11 @@ struct ConnectionConfig {
     /// resyncs come as genesis deltas (only the tiles that differ from it) when the server's
     /// genesis is the same. Off: always the whole snapshot.
     bool genesis_deltas = true;
+    /// A resume that would replay more ops than this is turned into a snapshot (a genesis delta
+    /// when the replica holds the genesis) right after the Welcome: replaying thousands of
+    /// craters costs a client seconds, which a fast link downloads in less. 0: no limit (the
+    /// server's rule alone: it resumes whenever the missed ops fit its budget).
+    std::uint64_t max_replay_ops = 0;
     /// Repairs tried before falling back to a snapshot.
     int max_repair_rounds = 3;
     /// Tiles per RepairRequest (the server's limit is 64); more are asked in later rounds.
