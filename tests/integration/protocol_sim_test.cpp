@@ -5,6 +5,7 @@
 
 #include "support/loopback.h"
 #include "support/sim_net.h"
+#include "support/terrain_builders.h"
 
 #include <terrain/journal/journal.h>
 #include <terrain/procedural_map.h>
@@ -29,30 +30,14 @@ Terrain simMap(std::uint64_t seed = 5, int size = 129) {
     return std::move(*makeProceduralMap(o));
 }
 
-OpRequest simCrater(std::mt19937_64& rng, const WorldSpec& spec) {
-    const double extent = static_cast<double>(spec.spacing) / spec.units_per_metre * spec.cellsX();
-    std::uniform_real_distribution<double> pos(2.0, extent - 2.0);
-    std::uniform_real_distribution<double> radius(1.0, 6.0);
-    std::uniform_real_distribution<double> depth(0.2, 2.0);
-    std::uniform_int_distribution<int> kind(1, 4);
-    OpRequest r;
-    r.kind = static_cast<OpKind>(kind(rng));
-    r.x = pos(rng);
-    r.y = pos(rng);
-    r.radius = radius(rng);
-    r.height = r.kind == OpKind::kFlatten ? 40.0 : r.kind == OpKind::kSmooth ? 0.0 : depth(rng);
-    r.strength = r.kind == OpKind::kRaise ? 1.0 : 0.5;
-    return r;
-}
-
 struct Scenario {
     int ops = 120;
     double op_interval = 0.01; ///< seconds between the deformer's requests
     int viewers = 2;
     double late_join_at = 0.4; ///< a viewer that ships the map joins then (negative: none)
     std::uint64_t late_max_replay_ops = 0; ///< that viewer's ConnectionConfig::max_replay_ops
-    LinkSpec link;             ///< every client's
-    LinkSpec victim_link;      ///< viewer 0's
+    LinkSpec link;                         ///< every client's
+    LinkSpec victim_link;                  ///< viewer 0's
     std::uint64_t cut_viewer_at = 0;
     std::uint64_t cut_deformer_at = 0;
     server::ServerConfig config;
@@ -132,7 +117,7 @@ Outcome runScenario(const Scenario& s) {
     std::mt19937_64 rng(11);
     std::vector<OpRequest> requests;
     for (int i = 0; i < s.ops; ++i)
-        requests.push_back(simCrater(rng, authority.terrain().spec()));
+        requests.push_back(randomRequest(rng, authority.terrain().spec()));
     // the deformer asks once it is live, one request per interval; asks made while its link is
     // down are lost, as a game's would be
     for (int i = 0; i < s.ops; ++i)

@@ -2,6 +2,7 @@
 // peers, repair. Each test builds its own server on an ephemeral port.
 
 #include "support/net_harness.h"
+#include "support/terrain_builders.h"
 
 #include <terrain/journal/journal.h>
 #include <terrain/surface_query.h>
@@ -20,22 +21,6 @@ namespace {
 
 namespace pb = wire::pb;
 using server::Role;
-
-OpRequest randomCrater(std::mt19937_64& rng, const WorldSpec& spec) {
-    const double extent = static_cast<double>(spec.spacing) / spec.units_per_metre * spec.cellsX();
-    std::uniform_real_distribution<double> pos(2.0, extent - 2.0);
-    std::uniform_real_distribution<double> radius(1.0, 6.0);
-    std::uniform_real_distribution<double> depth(0.2, 2.0);
-    std::uniform_int_distribution<int> kind(1, 4);
-    OpRequest r;
-    r.kind = static_cast<OpKind>(kind(rng));
-    r.x = pos(rng);
-    r.y = pos(rng);
-    r.radius = radius(rng);
-    r.height = r.kind == OpKind::kFlatten ? 40.0 : r.kind == OpKind::kSmooth ? 0.0 : depth(rng);
-    r.strength = r.kind == OpKind::kRaise ? 1.0 : 0.5;
-    return r;
-}
 
 server::ServerConfig fastConfig() {
     server::ServerConfig c;
@@ -69,7 +54,7 @@ TEST(Session, ClientsConvergeAfterOpsFromSeveralDeformers) {
     for (int round = 0; round < 40; ++round)
         for (int d = 0; d < 3; ++d)
             clients[static_cast<std::size_t>(d)]->connection->requestDeform(
-                randomCrater(rng, spec));
+                randomRequest(rng, spec));
     ASSERT_TRUE(runUntil(io, [&] {
         std::size_t answered = 0;
         for (int d = 0; d < 3; ++d)
@@ -102,13 +87,13 @@ TEST(Session, LateJoinGetsSnapshotThenLiveOps) {
     std::mt19937_64 rng(11);
     const WorldSpec spec = clients[0]->replica.terrain().spec();
     for (int i = 0; i < 30; ++i)
-        clients[0]->connection->requestDeform(randomCrater(rng, spec));
+        clients[0]->connection->requestDeform(randomRequest(rng, spec));
     ASSERT_TRUE(runUntil(io, [&] { return clients[0]->answers.size() == 30; }));
     clients.push_back(std::make_unique<TestClient>(io, srv.port(), token(2, Role::kViewer)));
     ASSERT_TRUE(runUntil(io, [&] { return allAt(clients, srv.seq(), srv.worldHash()); }));
     EXPECT_GT(clients[1]->replica.seq(), 0u);
     for (int i = 0; i < 10; ++i)
-        clients[0]->connection->requestDeform(randomCrater(rng, spec));
+        clients[0]->connection->requestDeform(randomRequest(rng, spec));
     ASSERT_TRUE(runUntil(io, [&] { return clients[0]->answers.size() == 40; }));
     ASSERT_TRUE(runUntil(io, [&] { return allAt(clients, srv.seq(), srv.worldHash()); }));
     EXPECT_GT(clients[1]->replica.stats().ops_applied, 0u);
@@ -135,11 +120,11 @@ void reconnectScenario(std::size_t log_capacity, int missed_ops, bool expect_res
     ASSERT_TRUE(runUntil(io, [&] { return deformer.replica.ready() && kept.ready(); }));
     const WorldSpec spec = kept.terrain().spec();
     for (int i = 0; i < 5; ++i)
-        deformer.connection->requestDeform(randomCrater(rng, spec));
+        deformer.connection->requestDeform(randomRequest(rng, spec));
     ASSERT_TRUE(runUntil(io, [&] { return kept.seq() == 5; }));
     viewer->stop();
     for (int i = 0; i < missed_ops; ++i)
-        deformer.connection->requestDeform(randomCrater(rng, spec));
+        deformer.connection->requestDeform(randomRequest(rng, spec));
     ASSERT_TRUE(runUntil(io, [&] { return deformer.answers.size() == 5u + missed_ops; }));
     EXPECT_EQ(kept.seq(), 5u);
     viewer = connectViewer();
@@ -171,7 +156,7 @@ TEST(Session, AClientThatShipsTheMapJoinsByAGenesisDelta) {
     auto deform = [&](int n) {
         const std::size_t target = deformer.answers.size() + static_cast<std::size_t>(n);
         for (int i = 0; i < n; ++i)
-            deformer.connection->requestDeform(randomCrater(rng, spec));
+            deformer.connection->requestDeform(randomRequest(rng, spec));
         ASSERT_TRUE(runUntil(io, [&] { return deformer.answers.size() == target; }));
     };
     // while the log still holds seq 1, a client at the genesis resumes from seq 0
@@ -234,7 +219,7 @@ TEST(Session, ReaderThatStopsReadingIsResyncedThenDisconnectedWithoutHurtingOthe
         [&] {
             if (clients[0]->answers.size() == sent && sent < 3000) {
                 for (int i = 0; i < 50; ++i)
-                    clients[0]->connection->requestDeform(randomCrater(rng, spec));
+                    clients[0]->connection->requestDeform(randomRequest(rng, spec));
                 sent += 50;
             }
             return srv.stats().slow_disconnects == 1;
@@ -416,7 +401,7 @@ TEST(Session, APacedClientSpreadsABurstOverFramesAndConverges) {
     std::mt19937_64 rng(5);
     const WorldSpec spec = deformer.replica.terrain().spec();
     for (int i = 0; i < 12; ++i)
-        deformer.connection->requestDeform(randomCrater(rng, spec));
+        deformer.connection->requestDeform(randomRequest(rng, spec));
     // every op has arrived; none is applied until the frame loop asks
     ASSERT_TRUE(runUntil(
         io, [&] { return deformer.answers.size() == 12 && paced.connection->opsWaiting() == 12; }));
@@ -523,7 +508,7 @@ TEST(Session, JoinFarBehindTheCachedSnapshotIsNotTreatedAsSlow) {
     // in windows of 20, so that the deformer itself stays inside its small budget
     for (std::size_t sent = 0; sent < 600; sent += 20) {
         for (int i = 0; i < 20; ++i)
-            first.connection->requestDeform(randomCrater(rng, spec));
+            first.connection->requestDeform(randomRequest(rng, spec));
         ASSERT_TRUE(runUntil(io, [&] { return first.answers.size() == sent + 20; }));
     }
     // 600 ops of tail would not fit an 8 KiB budget: the server must rebuild the snapshot
@@ -584,7 +569,7 @@ TEST(Session, AJoinWaitingForItsSnapshotDelaysNoOtherSession) {
     const auto deform = [&](std::size_t n) {
         const std::size_t before = deformer.answers.size();
         for (std::size_t i = 0; i < n; ++i)
-            deformer.connection->requestDeform(randomCrater(rng, spec));
+            deformer.connection->requestDeform(randomRequest(rng, spec));
         return runUntil(io, [&] { return deformer.answers.size() == before + n; });
     };
     for (int window = 0; window < 4; ++window)
@@ -648,10 +633,10 @@ TEST(Session, AJournalSyncInProgressDelaysNoReplyAndTheNextGroupQueuesBehindIt) 
         std::mt19937_64 rng(5);
         const WorldSpec spec = deformer.replica.terrain().spec();
         hold = true;
-        deformer.connection->requestDeform(randomCrater(rng, spec));
+        deformer.connection->requestDeform(randomRequest(rng, spec));
         ASSERT_TRUE(runUntil(io, [&] { return syncs.load() == 1; })); // its sync is held
         for (int i = 0; i < 5; ++i) // the next group, accepted while the first is out
-            deformer.connection->requestDeform(randomCrater(rng, spec));
+            deformer.connection->requestDeform(randomRequest(rng, spec));
         viewer.connection->queryHeight(20.0, 20.0);
         ASSERT_TRUE(runUntil(io, [&] { return heights.size() == 1; }))
             << "a query waited for the journal";
@@ -688,7 +673,7 @@ void batchedBurst(bool hash_per_op) {
     std::mt19937_64 rng(9);
     const WorldSpec spec = deformer.replica.terrain().spec();
     for (int i = 0; i < 60; ++i) // one write: a burst the server commits in one or few groups
-        deformer.connection->requestDeform(randomCrater(rng, spec));
+        deformer.connection->requestDeform(randomRequest(rng, spec));
     ASSERT_TRUE(runUntil(io, [&] {
         slow.connection->applyArrived(); // a frame loop: a few ops a frame
         return deformer.answers.size() == 60 && viewer.replica.seq() == srv.seq() &&

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,23 @@ makeHills(std::uint64_t seed, std::int32_t w = 150, std::int32_t h = 140, double
 }
 
 /// Applies every request; all must be valid.
+/// A small request of a random kind anywhere on the map, as a client in the session tests sends.
+inline OpRequest randomRequest(std::mt19937_64& rng, const WorldSpec& spec) {
+    const double extent = static_cast<double>(spec.spacing) / spec.units_per_metre * spec.cellsX();
+    std::uniform_real_distribution<double> pos(2.0, extent - 2.0);
+    std::uniform_real_distribution<double> radius(1.0, 6.0);
+    std::uniform_real_distribution<double> depth(0.2, 2.0);
+    std::uniform_int_distribution<int> kind(1, 4);
+    OpRequest r;
+    r.kind = static_cast<OpKind>(kind(rng));
+    r.x = pos(rng);
+    r.y = pos(rng);
+    r.radius = radius(rng);
+    r.height = r.kind == OpKind::kFlatten ? 40.0 : r.kind == OpKind::kSmooth ? 0.0 : depth(rng);
+    r.strength = r.kind == OpKind::kRaise ? 1.0 : 0.5;
+    return r;
+}
+
 inline void applyAll(Terrain& t, const std::vector<OpRequest>& ops) {
     for (const OpRequest& r : ops) {
         auto op = quantizeOp(r, t.spec());
