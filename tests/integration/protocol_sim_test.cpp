@@ -22,14 +22,6 @@ namespace {
 
 using server::Role;
 
-Terrain simMap(std::uint64_t seed = 5, int size = 129) {
-    ProceduralMapOptions o;
-    o.seed = seed;
-    o.width = size;
-    o.height = size;
-    return std::move(*makeProceduralMap(o));
-}
-
 struct Scenario {
     int ops = 120;
     double op_interval = 0.01; ///< seconds between the deformer's requests
@@ -66,7 +58,7 @@ struct Outcome {
 Outcome runScenario(const Scenario& s) {
     SimWorld world;
     world.commit_delay = s.commit_delay;
-    Terrain map = simMap();
+    Terrain map = smallMap(129);
     server::ServerConfig config = s.config;
     config.token_secret = testSecret();
     config.deform_rate_per_second = 1e4; // the scenario sets the pace
@@ -110,7 +102,7 @@ Outcome runScenario(const Scenario& s) {
             clients.push_back(std::make_unique<SimClient>(world, hub, c, s.link, "late"));
             late_client = clients.back().get();
             SimClient& late = *late_client;
-            EXPECT_TRUE(late.replica.loadGenesis(simMap()).ok());
+            EXPECT_TRUE(late.replica.loadGenesis(smallMap(129)).ok());
             late.connect();
         });
 

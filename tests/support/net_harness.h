@@ -4,6 +4,7 @@
 // raw sockets for misbehaving peers. Everything goes through real TCP on 127.0.0.1.
 
 #include "support/loopback.h"
+#include "support/terrain_builders.h"
 
 #include <terrain/client/connection.h>
 #include <terrain/client/replica.h>
@@ -28,14 +29,6 @@
 #include <vector>
 
 namespace terrain::testing {
-
-inline Terrain smallMap(int size = 257, std::uint64_t seed = 5) {
-    ProceduralMapOptions o;
-    o.seed = seed;
-    o.width = size;
-    o.height = size;
-    return std::move(*makeProceduralMap(o));
-}
 
 /// A server on its own thread (server::ServerThread) with the test token secret.
 class TestServer {

@@ -134,7 +134,9 @@ class SimClient : private server::SessionLink {
         LinkSpec spec = {},
         std::string name = "client")
         : machine(config, replica), world_(world), hub_(hub), spec_(spec), name_(std::move(name)),
-          reconnect_delay_(config.reconnect_delay_seconds), reconnect_(config.reconnect) {}
+          reconnect_delay_(config.reconnect_delay_seconds), reconnect_(config.reconnect) {
+        machine.on_deform_reply = [this](const client::DeformAnswer& a) { answers.push_back(a); };
+    }
     ~SimClient() override {
         if (session_)
             session_->attach(nullptr);
@@ -169,7 +171,6 @@ class SimClient : private server::SessionLink {
                 flushClient(gen);
             });
         });
-        machine.on_deform_reply = [this](const client::DeformAnswer& a) { answers.push_back(a); };
     }
 
     /// Client-side calls go through here so that what they queue is sent.
@@ -186,7 +187,6 @@ class SimClient : private server::SessionLink {
     /// Cuts the link now, as a network failure: each side learns it once what is in flight to
     /// it has arrived; the client reconnects after its delay.
     void cut(const std::string& why) {
-        const std::uint64_t gen = generation_;
         ++generation_;
         drops.push_back(why);
         machine.linkDown();
@@ -195,7 +195,6 @@ class SimClient : private server::SessionLink {
             session->attach(nullptr);
             world_.at(up_->closeArrives(), [session] { session->linkLost(); });
         }
-        (void)gen;
         if (reconnect_)
             world_.at(world_.now + reconnect_delay_, [this] { connect(); });
     }

@@ -47,6 +47,15 @@ makeHills(std::uint64_t seed, std::int32_t w = 150, std::int32_t h = 140, double
 }
 
 /// Applies every request; all must be valid.
+/// A square procedural map (the session and protocol tests' world).
+inline Terrain smallMap(int size = 257, std::uint64_t seed = 5) {
+    ProceduralMapOptions o;
+    o.seed = seed;
+    o.width = size;
+    o.height = size;
+    return std::move(*makeProceduralMap(o));
+}
+
 /// A small request of a random kind anywhere on the map, as a client in the session tests sends.
 inline OpRequest randomRequest(std::mt19937_64& rng, const WorldSpec& spec) {
     const double extent = static_cast<double>(spec.spacing) / spec.units_per_metre * spec.cellsX();
