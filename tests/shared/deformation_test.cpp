@@ -346,6 +346,51 @@ TEST(WorldSpecRules, spacingThatWouldEmptyTheRadiusRangeIsRefused) {
 }
 
 // Regression: 16.16 profile errors grow with depth; the prefilter's slack must follow.
+// The footprint loops compute a crater's radius ratio from a double estimate corrected in
+// integers (no 64-bit division); it must be radiusRatio's exact value for every radius and
+// distance, above all where (isqrt(r2) << 16) / R is an integer or just below one.
+TEST(PointwiseOp, radiusRatioWithoutDivisionIsExact) {
+    std::mt19937_64 rng(21);
+    // up to the largest radius any world allows (radiusRange: 2^23 quanta)
+    std::vector<std::int32_t> radii = {1, 2, 3, 47, 1024, 1536, 65535, 65536, 1 << 20, 1 << 23};
+    for (int n = 0; n < 40; ++n)
+        radii.push_back(static_cast<std::int32_t>(1 + rng() % (1 << 23)));
+    int checked = 0;
+    for (const std::int32_t radius : radii) {
+        DeformOp op;
+        op.center_x = 7;
+        op.center_y = 11;
+        op.radius = radius;
+        op.height = 1;
+        const PointwiseOp f(op, BlastGround{});
+        const std::int64_t r48 = std::int64_t{radius} * kFineScale;
+        auto check = [&](std::int64_t dx, std::int64_t dy) {
+            const std::int64_t x48 = op.center_x * kFineScale + dx;
+            const std::int64_t y48 = op.center_y * kFineScale + dy;
+            const std::int64_t r2 = squaredDistance48(op, x48, y48);
+            if (r2 >= 4 * r48 * r48)
+                return;
+            ASSERT_EQ(f.craterTerms(x48, y48).ratio, radiusRatio(op, r2))
+                << "radius " << radius << ", offset " << dx << ", " << dy;
+            ++checked;
+        };
+        for (int k = 0; k < 400; ++k) {
+            // roots where the ratio m / 2^16 is met exactly or missed by one unit
+            const std::int64_t m = static_cast<std::int64_t>(rng() % (2 * 65536));
+            const std::int64_t root = (m * r48 + 65535) / 65536;
+            for (std::int64_t s : {root - 1, root, root + 1})
+                if (s >= 0) {
+                    check(s, 0);
+                    check(-s, 1); // r2 = s^2 + 1: the same root, just past it
+                }
+            check(
+                static_cast<std::int64_t>(rng() % static_cast<std::uint64_t>(2 * r48)),
+                static_cast<std::int64_t>(rng() % static_cast<std::uint64_t>(r48)));
+        }
+    }
+    EXPECT_GT(checked, 40000);
+}
+
 TEST(PatchDecision, prefilterHoldsForDeepWideCraters) {
     std::mt19937 rng(5);
     std::uniform_real_distribution<double> unit(0.0, 1.0);

@@ -36,6 +36,7 @@ using bspline::kGridSamples;
 using bspline::kGridSteps;
 
 struct LocalCell {
+    const DetailPatch* old = nullptr; // the patch before the op (looked up once)
     bool has = false;
     bool judged = false; // inside the footprint: may be dropped by the worklist
     DetailPatch patch;
@@ -220,12 +221,24 @@ Result<OpEffect> Terrain::apply(const DeformOp& op) {
     auto at = [&](std::int32_t cx, std::int32_t cy) -> LocalCell& {
         return local[static_cast<size_t>((cy - er.y0) * ew + (cx - er.x0))];
     };
+    // the patches before the op: cells are row-major within a tile, so one binary search per
+    // tile row rather than one per cell
     for (std::int32_t cy = er.y0; cy <= er.y1; ++cy)
-        for (std::int32_t cx = er.x0; cx <= er.x1; ++cx)
-            if (const DetailPatch* p = findPatch(cx, cy)) {
-                at(cx, cy).has = true;
-                at(cx, cy).patch = *p;
+        for (std::int32_t tx = er.x0 / kTileCells; tx <= er.x1 / kTileCells; ++tx) {
+            const std::int32_t x0 = std::max(er.x0, tx * kTileCells);
+            const std::int32_t x1 = std::min(er.x1, tx * kTileCells + kTileCells - 1);
+            const std::span<const PatchEntry> patches = tilePatches(tileOfCell(x0, cy));
+            const std::uint16_t last = localCell(x1, cy);
+            auto it = std::lower_bound(
+                patches.begin(), patches.end(), localCell(x0, cy),
+                [](const PatchEntry& e, std::uint16_t c) { return e.cell < c; });
+            for (; it != patches.end() && it->cell <= last; ++it) {
+                LocalCell& cell = at(tx * kTileCells + it->cell % kTileCells, cy);
+                cell.old = &it->patch;
+                cell.has = true;
+                cell.patch = it->patch;
             }
+        }
     for (std::int32_t cy = cr.y0; cy <= cr.y1; ++cy)
         for (std::int32_t cx = cr.x0; cx <= cr.x1; ++cx) {
             // a cell of the box that the footprint's disc misses keeps its patch as it is
@@ -308,7 +321,7 @@ Result<OpEffect> Terrain::apply(const DeformOp& op) {
     for (std::int32_t cy = er.y0; cy <= er.y1; ++cy)
         for (std::int32_t cx = er.x0; cx <= er.x1; ++cx) {
             LocalCell& cell = at(cx, cy);
-            const DetailPatch* old = findPatch(cx, cy);
+            const DetailPatch* old = cell.old;
             if (old == nullptr && !cell.has)
                 continue;
             if (old != nullptr && cell.has && old->control == cell.patch.control)

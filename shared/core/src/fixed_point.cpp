@@ -36,17 +36,6 @@ bool productLessEqual(std::uint64_t a, std::uint64_t b, std::uint64_t c, std::ui
     return left.hi < right.hi || (left.hi == right.hi && left.lo <= right.lo);
 }
 
-std::uint64_t isqrt(std::uint64_t n) {
-    // IEEE sqrt is correctly rounded, and the fix-up loops make the result exact whatever the
-    // starting guess, so the answer is the same on every platform.
-    auto r = static_cast<std::uint64_t>(std::sqrt(static_cast<double>(n)));
-    while (r > 0 && r * r > n)
-        --r;
-    while ((r + 1) * (r + 1) <= n)
-        ++r;
-    return r;
-}
-
 const char* toString(ErrorCode code) {
     switch (code) {
     case ErrorCode::kNotFinite:

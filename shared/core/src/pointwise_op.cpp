@@ -207,7 +207,10 @@ BlastGround surveyGround(const Terrain& t, const DeformOp& op) {
     return g;
 }
 
-PointwiseOp::PointwiseOp(const DeformOp& op, const BlastGround& ground) : op_(op), ground_(ground) {
+PointwiseOp::PointwiseOp(const DeformOp& op, const BlastGround& ground)
+    : op_(op), ground_(ground), radius48_(std::int64_t{op.radius} * kFineScale) {
+    if (radius48_ > 0)
+        ratio_per_root_ = 65536.0 / static_cast<double>(radius48_);
     if (op.kind == OpKind::kCrater) {
         depth48_ = std::int64_t{op.height} * kFineScale;
         rim48_ = (((depth48_ * op.strength) >> 16) * (kOne + ground.rim_growth)) >> 16;
@@ -250,6 +253,19 @@ std::int64_t PointwiseOp::plane48(std::int64_t x48, std::int64_t y48) const {
                                  kOne);
 }
 
+std::int64_t PointwiseOp::ratio(std::int64_t r2) const {
+    // floor(a / R) from a double estimate: within 2^-50 of a / R relative, and every ratio used
+    // is below 2^19, so it is off by one at most; the integer checks make it exact
+    const auto root = static_cast<std::int64_t>(isqrt(static_cast<std::uint64_t>(r2)));
+    const std::int64_t a = root << 16;
+    auto q = static_cast<std::int64_t>(static_cast<double>(root) * ratio_per_root_);
+    while (q > 0 && q * radius48_ > a)
+        --q;
+    while ((q + 1) * radius48_ <= a)
+        ++q;
+    return q;
+}
+
 CraterTerms PointwiseOp::craterTerms(std::int64_t x48, std::int64_t y48) const {
     CraterTerms c;
     const std::int64_t radius48 = std::int64_t{op_.radius} * kFineScale;
@@ -257,7 +273,7 @@ CraterTerms PointwiseOp::craterTerms(std::int64_t x48, std::int64_t y48) const {
     if (r2 >= 4 * radius48 * radius48)
         return c;
     c.inside = true;
-    c.ratio = radiusRatio(op_, r2);
+    c.ratio = ratio(r2);
     c.relief = relief48(c.ratio);
     // anchor48() and limit48() with the taper computed once (this runs for every point of
     // every footprint)
@@ -287,7 +303,7 @@ std::int64_t PointwiseOp::height(
         const std::int64_t r2 = squaredDistance48(op_, x48, y48);
         if (r2 >= radius48 * radius48)
             return z48;
-        const std::int64_t t = radiusRatio(op_, r2);
+        const std::int64_t t = ratio(r2);
         const std::int64_t w = kOne - ((t * t) >> 16);
         return z48 + ((std::int64_t{op_.height} * kFineScale * ((w * w) >> 16)) >> 16);
     }

@@ -27,8 +27,22 @@ constexpr Diagonal cellDiagonal(std::int32_t x, std::int32_t y) {
 }
 
 /// n * T(a/n, b/n), exact, for integer 0 <= a, b <= n: the base surface height in 1/n quanta.
-std::int64_t
-baseHeightScaled(const CellCorners& c, Diagonal d, std::int64_t a, std::int64_t b, std::int64_t n);
+/// Inline: patch decisions run it for every point of the 17 x 17 grid.
+inline std::int64_t
+baseHeightScaled(const CellCorners& c, Diagonal d, std::int64_t a, std::int64_t b, std::int64_t n) {
+    const std::int64_t h00 = c.h00;
+    const std::int64_t h10 = c.h10;
+    const std::int64_t h01 = c.h01;
+    const std::int64_t h11 = c.h11;
+    if (d == Diagonal::kMain) {
+        if (a >= b)
+            return n * h00 + (h10 - h00) * a + (h11 - h10) * b;
+        return n * h00 + (h11 - h01) * a + (h01 - h00) * b;
+    }
+    if (a + b <= n)
+        return n * h00 + (h10 - h00) * a + (h01 - h00) * b;
+    return n * h11 + (h01 - h11) * (n - a) + (h10 - h11) * (n - b);
+}
 
 /// T(u, v) in quanta for u, v in [0, 1].
 double baseHeight(const CellCorners& c, Diagonal d, double u, double v);

@@ -3,6 +3,7 @@
 // Integer helpers for the deterministic core. Every function here is exact and gives the same
 // result on every conforming C++20 compiler (signed >> is arithmetic since C++20).
 
+#include <cmath>
 #include <cstdint>
 
 namespace terrain {
@@ -55,7 +56,16 @@ constexpr std::int32_t clampHeight(std::int64_t q) {
 /// from 32-bit halves, so it needs no compiler extension).
 bool productLessEqual(std::uint64_t a, std::uint64_t b, std::uint64_t c, std::uint64_t d);
 
-/// floor(sqrt(n)), exact for all n < 2^62.
-std::uint64_t isqrt(std::uint64_t n);
+/// floor(sqrt(n)), exact for all n < 2^62. Inline: it runs for every point of every footprint.
+inline std::uint64_t isqrt(std::uint64_t n) {
+    // IEEE sqrt is correctly rounded, and the fix-up loops make the result exact whatever the
+    // starting guess, so the answer is the same on every platform.
+    auto r = static_cast<std::uint64_t>(std::sqrt(static_cast<double>(n)));
+    while (r > 0 && r * r > n)
+        --r;
+    while ((r + 1) * (r + 1) <= n)
+        ++r;
+    return r;
+}
 
 } // namespace terrain

@@ -122,10 +122,15 @@ class PointwiseOp {
     static std::int64_t taper(std::int64_t ratio);
 
   private:
+    /// radiusRatio(op_, r2), without its 64-bit division (the footprint loops' hottest step).
+    std::int64_t ratio(std::int64_t r2) const;
+
     DeformOp op_;
     BlastGround ground_;
     std::int64_t depth48_ = 0;
     std::int64_t rim48_ = 0;
+    std::int64_t radius48_ = 0;
+    double ratio_per_root_ = 0.0; ///< 2^16 / radius48_: the estimate ratio() corrects
 };
 
 /// Radius ratio t = r / R in 16.16 from a squared distance in (1/48 quanta)^2.
