@@ -44,6 +44,7 @@ struct Options {
     std::size_t max_sessions = 1024;
     std::size_t outbound_budget = 4 << 20;
     std::size_t op_log = 8192;
+    std::uint64_t snapshot_cache_lag = server::ServerConfig{}.snapshot_cache_max_lag;
     double deform_rate = 30.0;
     std::uint64_t snapshot_every = 20000;
     bool batch_broadcasts = false;
@@ -183,6 +184,7 @@ int serve(const Options& o) {
     config.deform_rate_per_second = o.deform_rate;
     config.deform_burst = 2 * o.deform_rate;
     config.journal_snapshot_every = o.snapshot_every;
+    config.snapshot_cache_max_lag = o.snapshot_cache_lag;
     config.batch_broadcasts = o.batch_broadcasts;
     config.batch_hash_per_op = o.batch_hash_per_op;
     config.token_secret = *secret;
@@ -400,6 +402,13 @@ int main(int argc, char** argv) {
             "--batch-hash-per-op", o.batch_hash_per_op,
             "with --batch-broadcasts: every op's world hash too (8 bytes an op)")
         ->envname("TERRAIN_BATCH_HASH_PER_OP");
+    serve_cmd
+        ->add_option(
+            "--snapshot-cache-lag", o.snapshot_cache_lag,
+            "ops a cached join snapshot may be behind (joins replay them); once joins have asked, "
+            "it is rebuilt off the network thread every half of this")
+        ->envname("TERRAIN_SNAPSHOT_CACHE_LAG")
+        ->check(CLI::Range(1, 1 << 24));
     serve_cmd->add_option("--snapshot-every", o.snapshot_every, "journal snapshot every N ops")
         ->envname("TERRAIN_SNAPSHOT_EVERY");
     serve_cmd->add_option("--port-file", o.port_file, "write the bound port to this file");

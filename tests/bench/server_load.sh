@@ -5,6 +5,7 @@
 # the latency from each request's send to its op's receipt by every viewer.
 # Usage: bash tests/bench/server_load.sh [feed options...]
 #   env: SHOTS (4000), PROCS (4), VIEWERS (16 per process), SERVER_FLAGS (e.g. --batch-broadcasts),
+#        SERVER_BIN (another terrain-server binary, for before/after runs),
 #        JOIN_EVERY (seconds: a fresh viewer process joins by snapshot that often during the feed)
 # Examples: bash tests/bench/server_load.sh --rate 600
 #           bash tests/bench/server_load.sh --window 256
@@ -20,7 +21,7 @@ source tests/bench/bench_server.sh
 bench_folder out/bench/server_load
 "$bin/tests/battle_bench" --shots "$shots" --ops "$out/ops.txt" > /dev/null
 # shellcheck disable=SC2086
-start_server "$out/server.log" "$bin/server/terrain-server" --data-dir "$out/data" \
+start_server "$out/server.log" "${SERVER_BIN:-$bin/server/terrain-server}" --data-dir "$out/data" \
     --deform-rate 100000 --max-sessions 4096 ${SERVER_FLAGS:-}
 trap 'kill $server 2> /dev/null || true' EXIT
 viewer_token=$("$bin/server/terrain-server" token --player 2 --role viewer)

@@ -11,8 +11,13 @@ namespace terrain::server {
 Server::Server(
     asio::io_context& io, ServerConfig config, Authority& authority, journal::Journal* journal)
     : io_(io), acceptor_(io),
-      snapshot_worker_(std::make_unique<WorkerThread>(io, config.before_snapshot_build, true)),
-      commit_worker_(std::make_unique<WorkerThread>(io, nullptr)),
+      // snapshots are background work (the join cache is refreshed before anyone waits on it);
+      // commits are on every deformer's path
+      snapshot_worker_(std::make_unique<WorkerThread>(
+          io,
+          config.before_snapshot_build,
+          WorkerThread::Options{.trim_after_each = true, .nice = 10})),
+      commit_worker_(std::make_unique<WorkerThread>(io, nullptr, WorkerThread::Options{})),
       hub_(*this, std::move(config), authority, journal), shutdown_timer_(io),
       accept_retry_timer_(io) {
     hub_.on_broadcast = [this](std::uint64_t seq) {

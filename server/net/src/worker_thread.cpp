@@ -5,13 +5,16 @@
 #ifdef __GLIBC__
 #include <malloc.h>
 #endif
+#ifdef __linux__
+#include <sys/resource.h>
+#include <unistd.h>
+#endif
 
 namespace terrain::server {
 
-WorkerThread::WorkerThread(
-    asio::io_context& io, std::function<void()> before_each, bool trim_after_each)
-    : io_(io), before_each_(std::move(before_each)), trim_after_each_(trim_after_each),
-      thread_([this] { run(); }) {}
+WorkerThread::WorkerThread(asio::io_context& io, std::function<void()> before_each, Options options)
+    : io_(io), before_each_(std::move(before_each)), options_(options), thread_([this] { run(); }) {
+}
 
 WorkerThread::~WorkerThread() {
     alive_.reset();
@@ -33,6 +36,11 @@ void WorkerThread::submit(Job job) {
 }
 
 void WorkerThread::run() {
+#ifdef __linux__
+    // per thread on Linux (a thread id names one thread); best effort: a failure leaves it at 0
+    if (options_.nice != 0)
+        (void)setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), options_.nice);
+#endif
     for (;;) {
         Job job;
         {
@@ -55,7 +63,7 @@ void WorkerThread::run() {
         // a snapshot job's buffers (a terrain copy, the raw and compressed snapshot) are tens of
         // MB that glibc keeps in this thread's arena once freed; a server holds its resident set
         // to what it uses between builds only if they go back to the system
-        if (trim_after_each_)
+        if (options_.trim_after_each)
             malloc_trim(0);
 #endif
     }

@@ -22,11 +22,17 @@ class WorkerThread {
     /// Runs on the worker's thread; returns what the io thread runs afterwards.
     using Job = std::function<std::function<void()>()>;
 
-    /// `before_each` (may be empty) runs on the worker's thread before each job (tests). With
-    /// `trim_after_each`, each job's freed memory goes back to the system (glibc's malloc_trim):
-    /// for jobs of tens of MB, not for frequent small ones.
-    WorkerThread(
-        asio::io_context& io, std::function<void()> before_each, bool trim_after_each = false);
+    struct Options {
+        /// Each job's freed memory goes back to the system (glibc's malloc_trim): for jobs of
+        /// tens of MB, not for frequent small ones.
+        bool trim_after_each = false;
+        /// The thread's nice value (Linux; 0 elsewhere): background work that no one waits on
+        /// yields the CPU to the io thread, whose tail latency it would otherwise take.
+        int nice = 0;
+    };
+
+    /// `before_each` (may be empty) runs on the worker's thread before each job (tests).
+    WorkerThread(asio::io_context& io, std::function<void()> before_each, Options options);
     /// Stops the thread after the job in progress; jobs not started, and completions not yet
     /// run, are dropped.
     ~WorkerThread();
@@ -41,7 +47,7 @@ class WorkerThread {
 
     asio::io_context& io_;
     std::function<void()> before_each_;
-    bool trim_after_each_;
+    Options options_;
     /// Completions hold a weak reference and do nothing once it is gone (io thread only).
     std::shared_ptr<bool> alive_ = std::make_shared<bool>(true);
     const std::weak_ptr<bool> alive_weak_ = alive_; ///< what the worker copies (never written)
