@@ -42,6 +42,8 @@ struct Options {
     int size = 1025;
     double tolerance = 1.0 / 32.0;
     std::size_t max_sessions = 1024;
+    std::size_t max_pending = server::ServerConfig{}.max_pending_sessions;
+    std::size_t max_pending_per_address = server::ServerConfig{}.max_pending_per_address;
     std::size_t outbound_budget = 4 << 20;
     std::size_t op_log = 8192;
     std::uint64_t snapshot_cache_lag = server::ServerConfig{}.snapshot_cache_max_lag;
@@ -179,6 +181,8 @@ int serve(const Options& o) {
     config.bind_address = o.bind;
     config.port = static_cast<std::uint16_t>(o.port);
     config.max_sessions = o.max_sessions;
+    config.max_pending_sessions = o.max_pending;
+    config.max_pending_per_address = o.max_pending_per_address;
     config.outbound_budget_bytes = o.outbound_budget;
     config.op_log_capacity = o.op_log;
     config.deform_rate_per_second = o.deform_rate;
@@ -378,7 +382,20 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(65, 8193));
     serve_cmd->add_option("--tolerance", o.tolerance, "patch tolerance in metres")
         ->check(CLI::Range(1.0 / 1024, 10.0));
-    serve_cmd->add_option("--max-sessions", o.max_sessions)->envname("TERRAIN_MAX_SESSIONS");
+    serve_cmd->add_option("--max-sessions", o.max_sessions, "player slots (sessions past Hello)")
+        ->envname("TERRAIN_MAX_SESSIONS");
+    serve_cmd
+        ->add_option(
+            "--max-pending", o.max_pending,
+            "connections waiting to say Hello (health probes among them), their own limit")
+        ->envname("TERRAIN_MAX_PENDING")
+        ->check(CLI::Range(1, 1 << 20));
+    serve_cmd
+        ->add_option(
+            "--max-pending-per-address", o.max_pending_per_address,
+            "connections from one address waiting to say Hello")
+        ->envname("TERRAIN_MAX_PENDING_PER_ADDRESS")
+        ->check(CLI::Range(1, 1 << 20));
     serve_cmd
         ->add_option(
             "--outbound-budget", o.outbound_budget,

@@ -22,7 +22,8 @@ bench_folder out/bench/server_load
 "$bin/tests/battle_bench" --shots "$shots" --ops "$out/ops.txt" > /dev/null
 # shellcheck disable=SC2086
 start_server "$out/server.log" "${SERVER_BIN:-$bin/server/terrain-server}" --data-dir "$out/data" \
-    --deform-rate 100000 --max-sessions 4096 ${SERVER_FLAGS:-}
+    --deform-rate 100000 --max-sessions 4096 --max-pending 4096 \
+    --max-pending-per-address 4096 ${SERVER_FLAGS:-}
 trap 'kill $server 2> /dev/null || true' EXIT
 viewer_token=$("$bin/server/terrain-server" token --player 2 --role viewer)
 pids=()

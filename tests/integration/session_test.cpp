@@ -723,6 +723,90 @@ TEST(Session, HealthRequestAnswersWithoutAToken) {
     EXPECT_EQ(peer.received[0], pb::Envelope::kHealthReply);
 }
 
+// A flood in one write: the session closes for flooding with most of it unread. Its Disconnect
+// must still reach the peer (a socket closed with unread input sends a reset, and the peer's
+// kernel drops what it had not read yet, the Disconnect with it).
+TEST(Session, AFloodInOneWriteStillGetsItsDisconnectReason) {
+    TestServer srv(smallMap(129), fastConfig());
+    for (int attempt = 0; attempt < 3; ++attempt) {
+        RawPeer peer(srv.port());
+        std::vector<std::uint8_t> bytes;
+        pb::Envelope hello;
+        hello.mutable_hello()->set_protocol_version(wire::kProtocolVersion);
+        hello.mutable_hello()->set_token(token(2, Role::kViewer));
+        wire::appendFrame(hello, bytes);
+        pb::Envelope ping;
+        for (int i = 0; i < 6000; ++i) {
+            ping.mutable_ping()->set_nonce(static_cast<std::uint64_t>(i) + 1);
+            wire::appendFrame(ping, bytes);
+        }
+        peer.sendBytes(bytes);
+        std::string message;
+        EXPECT_EQ(peer.readUntilDisconnect(10.0, &message), pb::REASON_FLOODING)
+            << "attempt " << attempt;
+        EXPECT_NE(message.find("frames per second"), std::string::npos) << message;
+    }
+}
+
+// The health command, tried as an operator would, against a server whose player slots are all
+// taken: it must answer, not be refused as one more player.
+TEST(Session, HealthAnswersWhenEveryPlayerSlotIsTaken) {
+    server::ServerConfig config = fastConfig();
+    config.max_sessions = 2;
+    TestServer srv(smallMap(129), config);
+    asio::io_context io;
+    TestClient a(io, srv.port(), token(1, Role::kViewer));
+    TestClient b(io, srv.port(), token(2, Role::kViewer));
+    ASSERT_TRUE(runUntil(io, [&] { return a.replica.ready() && b.replica.ready(); }));
+    {
+        RawPeer third(srv.port());
+        third.sendHello(token(3, Role::kViewer));
+        std::string message;
+        EXPECT_EQ(third.readUntilDisconnect(5.0, &message), pb::REASON_SERVER_FULL);
+        EXPECT_NE(message.find("player"), std::string::npos) << message;
+    }
+    RawPeer probe(srv.port());
+    pb::Envelope e;
+    e.mutable_health_request();
+    probe.send(e);
+    probe.readUntilDisconnect(0.5);
+    ASSERT_EQ(probe.received.size(), 1u);
+    EXPECT_EQ(probe.received[0], pb::Envelope::kHealthReply);
+}
+
+// Connections that never say Hello have their own limits, in all and per address: a few idle
+// sockets (reopened as each times out) cannot keep players out.
+TEST(Session, ConnectionsThatNeverSayHelloTakeNoPlayersPlace) {
+    server::ServerConfig config = fastConfig();
+    config.max_sessions = 2;
+    config.max_pending_sessions = 4;
+    config.max_pending_per_address = 2;
+    TestServer srv(smallMap(129), config);
+    // one address holds its share of idle sockets; its next one is refused at once
+    std::vector<std::unique_ptr<RawPeer>> idle;
+    for (int i = 0; i < 2; ++i)
+        idle.push_back(std::make_unique<RawPeer>(srv.port(), 0, "127.0.0.2"));
+    {
+        RawPeer extra(srv.port(), 0, "127.0.0.2");
+        std::string message;
+        EXPECT_EQ(extra.readUntilDisconnect(5.0, &message), pb::REASON_SERVER_FULL);
+        EXPECT_NE(message.find("127.0.0.2"), std::string::npos) << message;
+    }
+    // players (from another address) still take both slots
+    asio::io_context io;
+    TestClient a(io, srv.port(), token(1, Role::kViewer));
+    TestClient b(io, srv.port(), token(2, Role::kViewer));
+    ASSERT_TRUE(runUntil(io, [&] { return a.replica.ready() && b.replica.ready(); }));
+    EXPECT_EQ(a.connection->stats().disconnects + b.connection->stats().disconnects, 0u);
+    // idle sockets from more addresses fill the pending limit; past it, any address is refused
+    for (const char* from : {"127.0.0.3", "127.0.0.4"})
+        idle.push_back(std::make_unique<RawPeer>(srv.port(), 0, from));
+    RawPeer over(srv.port(), 0, "127.0.0.5");
+    std::string message;
+    EXPECT_EQ(over.readUntilDisconnect(5.0, &message), pb::REASON_SERVER_FULL);
+    EXPECT_NE(message.find("waiting"), std::string::npos) << message;
+}
+
 TEST(Session, HealthPairsTheBroadcastSeqWithItsOwnHash) {
     // Deform and health requests in one write: the server applies each deform at once but
     // broadcasts it only when the read pass ends, so every health reply is answered while ops are

@@ -121,10 +121,15 @@ runUntil(asio::io_context& io, const std::function<bool()>& done, double timeout
 /// A blocking raw TCP peer for protocol abuse tests.
 class RawPeer {
   public:
-    explicit RawPeer(std::uint16_t port, int receive_buffer = 0) : socket_(io_) {
+    /// `from`: a loopback source address (127.0.0.2, ...) so that a test can stand for peers
+    /// at several addresses.
+    explicit RawPeer(std::uint16_t port, int receive_buffer = 0, const char* from = nullptr)
+        : socket_(io_) {
         socket_.open(asio::ip::tcp::v4());
         if (receive_buffer > 0)
             socket_.set_option(asio::socket_base::receive_buffer_size(receive_buffer));
+        if (from != nullptr)
+            socket_.bind({asio::ip::make_address(from), 0});
         socket_.connect({asio::ip::make_address("127.0.0.1"), port});
     }
     void sendBytes(const std::vector<std::uint8_t>& bytes) {

@@ -35,21 +35,33 @@ void Session::start() {
     const auto endpoint = socket_.remote_endpoint(ec);
     std::string peer =
         ec ? "?" : endpoint.address().to_string() + ":" + std::to_string(endpoint.port());
+    // the machine may queue its refusal (a full server) before addSession returns: what it
+    // queued is written once machine_ is set
     machine_ = hub_.addSession(std::move(peer), now(), this);
+    writeMore();
     readMore();
 }
 
 void Session::readMore() {
-    if (reading_ || reading_stopped_ || closed_)
+    if (reading_ || closed_)
         return;
+    if (reading_stopped_) {
+        drain();
+        return;
+    }
     std::span<std::uint8_t> space = machine_->readBuffer(kReadChunk);
     reading_ = true;
     socket_.async_read_some(
         asio::buffer(space.data(), space.size()),
         [self = shared_from_this()](const asio::error_code& ec, std::size_t n) {
             self->reading_ = false;
-            if (self->closed_ || self->reading_stopped_)
-                return; // closing: the Disconnect is being written; the write or linger finishes
+            if (self->closed_ || self->reading_stopped_) {
+                // closing: the Disconnect is being written; what the peer still sends is read
+                // and dropped, so that the close sends no reset ahead of it
+                if (!ec)
+                    self->drain();
+                return;
+            }
             if (ec) {
                 self->machine_->linkLost();
                 return;
@@ -79,7 +91,8 @@ void Session::writeMore() {
 }
 
 void Session::framesQueued() {
-    writeMore();
+    if (machine_)
+        writeMore();
 }
 
 void Session::setDeadline(double at) {
@@ -99,15 +112,48 @@ void Session::setDeadline(double at) {
 
 void Session::stopReading() {
     reading_stopped_ = true;
-    asio::error_code ignored;
-    socket_.shutdown(asio::ip::tcp::socket::shutdown_receive, ignored);
+    if (!reading_)
+        drain();
+}
+
+void Session::drain() {
+    if (reading_ || !socket_.is_open())
+        return;
+    discard_.resize(kReadChunk);
+    reading_ = true;
+    socket_.async_read_some(
+        asio::buffer(discard_),
+        [self = shared_from_this()](const asio::error_code& ec, std::size_t) {
+            self->reading_ = false;
+            if (ec) {
+                if (self->closed_)
+                    self->closeSocket(); // the peer closed its side (or the link broke)
+                return;
+            }
+            self->drain();
+        });
 }
 
 void Session::closeLink() {
     closed_ = true;
+    reading_stopped_ = true;
+    asio::error_code ignored;
+    // the FIN follows the last frame written; the peer reads it all, then closes its side, and
+    // the drain closes ours. A peer that keeps sending is cut off after the linger
+    socket_.shutdown(asio::ip::tcp::socket::shutdown_send, ignored);
+    timer_.cancel();
+    timer_.expires_after(std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(hub_.config().close_linger_seconds)));
+    timer_.async_wait([self = shared_from_this()](const asio::error_code& ec) {
+        if (!ec)
+            self->closeSocket();
+    });
+    drain();
+}
+
+void Session::closeSocket() {
     asio::error_code ignored;
     timer_.cancel();
-    socket_.shutdown(asio::ip::tcp::socket::shutdown_both, ignored);
     socket_.close(ignored);
 }
 

@@ -4,6 +4,12 @@
 // reads into the machine, writes what the machine queues (gathered, one write at a time), and
 // arms the machine's deadlines. Lives on the server's io thread, kept alive by its own pending
 // operations (shared_ptr).
+//
+// Closing never drops the goodbye: a socket closed with unread input sends a reset, and the
+// peer's kernel then discards what the peer had not read, the Disconnect with it (a flood in one
+// write). So once the machine stops reading, input is read and discarded; once it is done, the
+// socket sends its FIN after the last frame and is closed when the peer closes its side, or
+// after the close linger at most.
 
 #include <terrain/server/server_hub.h>
 #include <terrain/server/session_machine.h>
@@ -30,6 +36,9 @@ class Session : public std::enable_shared_from_this<Session>, private SessionLin
 
     void readMore();
     void writeMore();
+    /// Reads and discards until the peer closes or an error; then closes the socket.
+    void drain();
+    void closeSocket();
     static double now();
 
     ServerHub& hub_;
@@ -39,8 +48,9 @@ class Session : public std::enable_shared_from_this<Session>, private SessionLin
     asio::steady_timer timer_;
     std::vector<asio::const_buffer> gather_;
     bool reading_ = false;
-    bool reading_stopped_ = false;
-    bool closed_ = false;
+    bool reading_stopped_ = false; ///< the machine reads no more: input is discarded
+    bool closed_ = false;          ///< the machine is done with the link
+    std::vector<std::uint8_t> discard_;
 };
 
 } // namespace terrain::server

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <future>
+#include <string_view>
 
 namespace terrain::server {
 namespace pb = wire::pb;
@@ -26,6 +27,16 @@ ServerHub::ServerHub(
     }
 }
 
+namespace {
+
+// "address:port" -> "address" (an IPv6 address keeps its colons)
+std::string_view addressOf(std::string_view peer) {
+    const std::size_t colon = peer.rfind(':');
+    return colon == std::string_view::npos ? peer : peer.substr(0, colon);
+}
+
+} // namespace
+
 ServerHub::~ServerHub() {
     *alive_ = false;
     for (const auto& session : sessions_)
@@ -38,9 +49,28 @@ ServerHub::addSession(std::string peer, double now, SessionLink* link) {
         std::make_shared<SessionMachine>(*this, next_session_id_++, std::move(peer), now);
     session->attach(link);
     ++stats_.sessions_accepted;
+    // connections that have not said Hello have limits of their own, so that sockets that
+    // never say it cannot keep players out (player slots are counted at Hello)
+    const std::string_view address = addressOf(session->peer());
+    std::size_t waiting = 0;
+    std::size_t waiting_here = 0;
+    for (const auto& s : sessions_)
+        if (s->awaitingHello()) {
+            ++waiting;
+            if (addressOf(s->peer()) == address)
+                ++waiting_here;
+        }
     sessions_.push_back(session);
-    if (sessions_.size() > config_.max_sessions)
-        session->close(pb::REASON_SERVER_FULL, "the server has no room for a session");
+    if (waiting >= config_.max_pending_sessions)
+        session->close(
+            pb::REASON_SERVER_FULL, std::to_string(waiting) +
+                                        " connections are waiting to say Hello, the server's "
+                                        "limit; try again shortly");
+    else if (waiting_here >= config_.max_pending_per_address)
+        session->close(
+            pb::REASON_SERVER_FULL, std::to_string(waiting_here) + " connections from " +
+                                        std::string(address) +
+                                        " are waiting to say Hello, the limit for one address");
     return session;
 }
 

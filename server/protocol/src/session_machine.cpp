@@ -179,6 +179,12 @@ void SessionMachine::onHello(const pb::Hello& hello) {
         close(pb::REASON_UNAVAILABLE, "the server's journal failed: " + hub_.failure());
         return;
     }
+    if (hub_.counters().sessions_live >= config.max_sessions) {
+        close(
+            pb::REASON_SERVER_FULL, "all " + std::to_string(config.max_sessions) +
+                                        " player slots are taken; try again later");
+        return;
+    }
     claims_ = *claims;
     genesis_hash_ = hello.genesis_hash();
     // a join needs every accepted op committed and broadcast first, so that the snapshot holds

@@ -33,7 +33,11 @@ struct ServerConfig {
     /// Per-session backlog of ops and replies; over it the session is resynced by snapshot, and
     /// over it again before the queue drained it is disconnected as a slow consumer.
     std::size_t outbound_budget_bytes = 4 << 20;
-    std::size_t max_sessions = 1024;
+    std::size_t max_sessions = 1024; ///< player slots: sessions past Hello
+    /// Connections that have not said Hello yet, in all and from one address: their own limits,
+    /// so that idle sockets never take a player's place (a health probe needs only one of them).
+    std::size_t max_pending_sessions = 256;
+    std::size_t max_pending_per_address = 32;
     /// SO_SNDBUF per session (0: the OS default). Small values bound kernel memory per client.
     int socket_send_buffer_bytes = 0;
     std::size_t op_log_capacity = 8192;
@@ -94,9 +98,10 @@ class ServerHub {
     ServerHub(const ServerHub&) = delete;
     ServerHub& operator=(const ServerHub&) = delete;
 
-    /// A new connection (`peer` names it in logs) at time `now`, carried by `link`: its
-    /// machine, in the hub's list until it finishes. Over max_sessions it is closed at once with
-    /// REASON_SERVER_FULL.
+    /// A new connection (`peer`, "address:port", names it in logs) at time `now`, carried by
+    /// `link`: its machine, in the hub's list until it finishes. Past the limits on connections
+    /// waiting for their Hello (max_pending_sessions, max_pending_per_address) it is closed at
+    /// once with REASON_SERVER_FULL; player slots (max_sessions) are taken at Hello.
     std::shared_ptr<SessionMachine> addSession(std::string peer, double now, SessionLink* link);
 
     /// Drains: commits pending ops, writes a journal snapshot, says goodbye to every session
