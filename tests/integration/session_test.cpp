@@ -712,15 +712,20 @@ TEST(Session, BatchesWithEveryOpsHashConvergeToo) {
     batchedBurst(true);
 }
 
-TEST(Session, HealthRequestAnswersWithoutAToken) {
-    TestServer srv(smallMap(129), fastConfig());
-    RawPeer peer(srv.port());
+/// A HealthRequest as the first frame, as `terrain-server health` sends it: one HealthReply.
+void expectHealthReply(std::uint16_t port) {
+    RawPeer probe(port);
     pb::Envelope e;
     e.mutable_health_request();
-    peer.send(e);
-    peer.readUntilDisconnect(0.5);
-    ASSERT_EQ(peer.received.size(), 1u);
-    EXPECT_EQ(peer.received[0], pb::Envelope::kHealthReply);
+    probe.send(e);
+    probe.readUntilDisconnect(0.5);
+    ASSERT_EQ(probe.received.size(), 1u);
+    EXPECT_EQ(probe.received[0], pb::Envelope::kHealthReply);
+}
+
+TEST(Session, HealthRequestAnswersWithoutAToken) {
+    TestServer srv(smallMap(129), fastConfig());
+    expectHealthReply(srv.port());
 }
 
 // A flood in one write: the session closes for flooding with most of it unread. Its Disconnect
@@ -765,13 +770,7 @@ TEST(Session, HealthAnswersWhenEveryPlayerSlotIsTaken) {
         EXPECT_EQ(third.readUntilDisconnect(5.0, &message), pb::REASON_SERVER_FULL);
         EXPECT_NE(message.find("player"), std::string::npos) << message;
     }
-    RawPeer probe(srv.port());
-    pb::Envelope e;
-    e.mutable_health_request();
-    probe.send(e);
-    probe.readUntilDisconnect(0.5);
-    ASSERT_EQ(probe.received.size(), 1u);
-    EXPECT_EQ(probe.received[0], pb::Envelope::kHealthReply);
+    expectHealthReply(srv.port());
 }
 
 // Connections that never say Hello have their own limits, in all and per address: a few idle
