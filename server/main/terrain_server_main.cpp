@@ -32,6 +32,7 @@ namespace pb = wire::pb;
 struct Options {
     std::string bind = "0.0.0.0";
     int port = 7777;
+    int metrics_port = -1;
     std::string data_dir = "terrain-data";
     bool no_journal = false;
     std::string durability = "fsync";
@@ -180,6 +181,7 @@ int serve(const Options& o) {
     server::ServerConfig config;
     config.bind_address = o.bind;
     config.port = static_cast<std::uint16_t>(o.port);
+    config.metrics_port = o.metrics_port;
     config.max_sessions = o.max_sessions;
     config.max_pending_sessions = o.max_pending;
     config.max_pending_per_address = o.max_pending_per_address;
@@ -209,6 +211,10 @@ int serve(const Options& o) {
         "terrain-server: clients up to %llu ops behind resume without a snapshot (--op-log %zu, "
         "--outbound-budget %zu: half of it at 64 bytes an op)\n",
         static_cast<unsigned long long>(srv.resumeWindow()), o.op_log, o.outbound_budget);
+    if (o.metrics_port >= 0)
+        std::printf(
+            "terrain-server: probes and metrics on http://%s:%u (/livez, /readyz, /metrics)\n",
+            o.bind.c_str(), srv.metricsPort());
     if (!o.port_file.empty()) {
         std::ofstream(o.port_file) << srv.port() << "\n";
     }
@@ -362,6 +368,13 @@ int main(int argc, char** argv) {
     serve_cmd->add_option("--bind", o.bind, "address to listen on")->envname("TERRAIN_BIND");
     serve_cmd->add_option("--port", o.port, "TCP port (0: any free port)")
         ->envname("TERRAIN_PORT")
+        ->check(CLI::Range(0, 65535));
+    serve_cmd
+        ->add_option(
+            "--metrics-port", o.metrics_port,
+            "HTTP port for probes and Prometheus (GET /livez, /readyz, /metrics) on the --bind "
+            "address; off unless given (0: any free port)")
+        ->envname("TERRAIN_METRICS_PORT")
         ->check(CLI::Range(0, 65535));
     serve_cmd->add_option("--data-dir", o.data_dir, "journal and snapshots directory")
         ->envname("TERRAIN_DATA_DIR");

@@ -1,4 +1,6 @@
+#include "server_metrics.h"
 #include "session.h"
+#include "status_http.h"
 #include "worker_thread.h"
 
 #include <terrain/server/server.h>
@@ -10,7 +12,9 @@ namespace terrain::server {
 
 Server::Server(
     asio::io_context& io, ServerConfig config, Authority& authority, journal::Journal* journal)
-    : io_(io), acceptor_(io),
+    : io_(io), acceptor_(io), metrics_(std::make_unique<ServerMetrics>()),
+      status_http_(std::make_unique<StatusHttp>(
+          io, [this](std::string_view path) { return statusPage(path); })),
       // snapshots are background work (the join cache is refreshed before anyone waits on it);
       // commits are on every deformer's path
       snapshot_worker_(std::make_unique<WorkerThread>(
@@ -48,8 +52,32 @@ Status Server::start() {
             ErrorCode::kIo, "cannot listen on " + config.bind_address + ":" +
                                 std::to_string(config.port) + ": " + ec.message());
     port_ = acceptor_.local_endpoint().port();
+    if (config.metrics_port >= 0)
+        if (Status s = status_http_->listen(
+                config.bind_address, static_cast<std::uint16_t>(config.metrics_port));
+            !s)
+            return s;
     accept();
     return Ok{};
+}
+
+std::uint16_t Server::metricsPort() const {
+    return status_http_->port();
+}
+
+HttpResponse Server::statusPage(std::string_view path) {
+    if (path == "/metrics")
+        return {200, "text/plain; version=0.0.4; charset=utf-8", metrics_->scrape(hub_)};
+    if (path == "/livez") // the loop answered: it is not stuck
+        return {200, "text/plain; charset=utf-8", "alive\n"};
+    if (path == "/readyz") {
+        if (hub_.failed())
+            return {503, "text/plain; charset=utf-8", "failed: " + hub_.failure() + "\n"};
+        if (hub_.shuttingDown())
+            return {503, "text/plain; charset=utf-8", "draining\n"};
+        return {200, "text/plain; charset=utf-8", "ready\n"};
+    }
+    return {404, "text/plain; charset=utf-8", "no such page: /metrics, /livez and /readyz\n"};
 }
 
 void Server::accept() {
@@ -80,12 +108,29 @@ void Server::post(std::function<void()> fn) {
     asio::post(io_, std::move(fn));
 }
 
+namespace {
+
+// the job, timed where it runs
+HubHost::Job timed(HubHost::Job job, std::function<void(double)> observe) {
+    return [job = std::move(job), observe = std::move(observe)] {
+        const auto start = std::chrono::steady_clock::now();
+        std::function<void()> then = job();
+        observe(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+        return then;
+    };
+}
+
+} // namespace
+
 void Server::runCommit(Job job) {
-    commit_worker_->submit(std::move(job));
+    commit_worker_->submit(
+        timed(std::move(job), [m = metrics_.get()](double seconds) { m->observeCommit(seconds); }));
 }
 
 void Server::runSnapshot(Job job) {
-    snapshot_worker_->submit(std::move(job));
+    snapshot_worker_->submit(timed(std::move(job), [m = metrics_.get()](double seconds) {
+        m->observeSnapshotBuild(seconds);
+    }));
 }
 
 void Server::stopAccepting() {

@@ -88,6 +88,23 @@ void ServerHub::remove(const SessionMachine* session) {
     });
 }
 
+ServerHub::SessionCounts ServerHub::sessionCounts() const {
+    SessionCounts c;
+    for (const auto& s : sessions_) {
+        if (s->awaitingHello())
+            ++c.awaiting_hello;
+        else if (s->ending())
+            ++c.ending;
+        else if (s->role() == Role::kViewer)
+            ++c.viewers;
+        else if (s->role() == Role::kDeformer)
+            ++c.deformers;
+        else
+            ++c.admins;
+    }
+    return c;
+}
+
 std::size_t ServerHub::queuedBytes() const {
     std::size_t n = 0;
     for (const auto& s : sessions_)

@@ -17,11 +17,15 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace terrain::server {
 
 class WorkerThread;
+class ServerMetrics;
+class StatusHttp;
+struct HttpResponse;
 
 class Server : private HubHost {
   public:
@@ -35,6 +39,8 @@ class Server : private HubHost {
     /// Binds and starts accepting. Errors: kIo naming the address and the OS error.
     Status start();
     std::uint16_t port() const { return port_; }
+    /// The probes' and metrics' HTTP port (ServerConfig::metrics_port), 0 when off.
+    std::uint16_t metricsPort() const;
 
     /// Drains: stops accepting, commits pending ops, writes a journal snapshot, says goodbye to
     /// every session and calls `done` once they are closed (or after the linger time).
@@ -66,10 +72,14 @@ class Server : private HubHost {
 
     void accept();
     void scheduleAccept();
+    HttpResponse statusPage(std::string_view path);
 
     asio::io_context& io_;
     asio::ip::tcp::acceptor acceptor_;
     std::uint16_t port_ = 0;
+    // the workers' jobs record into the metrics, which outlive them
+    std::unique_ptr<ServerMetrics> metrics_;
+    std::unique_ptr<StatusHttp> status_http_;
     // the workers outlive the hub: a job in progress holds none of its state
     std::unique_ptr<WorkerThread> snapshot_worker_;
     std::unique_ptr<WorkerThread> commit_worker_;

@@ -28,6 +28,9 @@ class SessionMachine;
 struct ServerConfig {
     std::string bind_address = "127.0.0.1";
     std::uint16_t port = 0; ///< 0: an ephemeral port (tests); see Server::port()
+    /// HTTP for probes and scrapes on bind_address (GET /metrics, /livez, /readyz): -1 off, 0 an
+    /// ephemeral port (Server::metricsPort()).
+    int metrics_port = -1;
     /// Inbound frame limit: clients send small requests only.
     std::size_t max_inbound_frame_bytes = 64 << 10;
     /// Per-session backlog of ops and replies; over it the session is resynced by snapshot, and
@@ -116,6 +119,15 @@ class ServerHub {
     const ServerConfig& config() const { return config_; }
     const ServerStats& stats() const { return stats_; }
     std::size_t sessionCount() const { return sessions_.size(); }
+    /// The sessions by state, and the live ones by role (metrics).
+    struct SessionCounts {
+        std::size_t awaiting_hello = 0;
+        std::size_t viewers = 0;
+        std::size_t deformers = 0;
+        std::size_t admins = 0;
+        std::size_t ending = 0; ///< closing, saying goodbye
+    };
+    SessionCounts sessionCounts() const;
     std::uint64_t broadcastSeq() const { return broadcast_seq_; }
     /// The world hash after op broadcastSeq(): the state clients see. The authority's own
     /// terrain may be ahead of it by ops not yet committed.

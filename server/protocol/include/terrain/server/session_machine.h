@@ -92,6 +92,8 @@ class SessionMachine : public std::enable_shared_from_this<SessionMachine> {
     bool live() const { return state_ == State::kLive; }
     /// Connected, no Hello yet (a pending connection, or a health probe).
     bool awaitingHello() const { return state_ == State::kAwaitHello; }
+    /// The role its token gave it (meaningful once live).
+    Role role() const { return claims_.role; }
     bool closed() const { return state_ == State::kClosed; }
     /// Closing or closed.
     bool ending() const { return state_ == State::kClosing || state_ == State::kClosed; }

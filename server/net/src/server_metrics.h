@@ -1,0 +1,65 @@
+#pragma once
+
+// The server's Prometheus metrics, kept in prometheus-cpp's registry and written in its text
+// format. Counters and gauges are read from the hub when scraped (the hub keeps the counts,
+// pure); histograms are observed by the shell where it times work: a group commit's write and
+// fdatasync, a snapshot build. Private to terrain_server_net.
+
+#include <terrain/server/server_hub.h>
+
+#include <prometheus/counter.h>
+#include <prometheus/gauge.h>
+#include <prometheus/histogram.h>
+#include <prometheus/registry.h>
+
+#include <memory>
+#include <string>
+
+namespace terrain::server {
+
+class ServerMetrics {
+  public:
+    ServerMetrics();
+
+    /// Any thread.
+    void observeCommit(double seconds) { commit_seconds_.Observe(seconds); }
+    void observeSnapshotBuild(double seconds) { snapshot_seconds_.Observe(seconds); }
+
+    /// Io thread: the text exposition with the hub's figures as they stand.
+    std::string scrape(const ServerHub& hub);
+
+  private:
+    /// A counter that follows a running total kept elsewhere.
+    struct Follower {
+        prometheus::Counter* counter = nullptr;
+        double seen = 0.0;
+        void follow(double total);
+    };
+
+    std::shared_ptr<prometheus::Registry> registry_ = std::make_shared<prometheus::Registry>();
+    prometheus::Histogram& commit_seconds_;
+    prometheus::Histogram& snapshot_seconds_;
+    Follower sessions_accepted_;
+    Follower ops_accepted_;
+    Follower ops_refused_;
+    Follower commits_;
+    Follower resyncs_;
+    Follower slow_disconnects_;
+    Follower bad_frames_;
+    Follower bad_tokens_;
+    Follower snapshots_built_;
+    Follower snapshots_sent_;
+    Follower genesis_deltas_sent_;
+    Follower repairs_served_;
+    Follower bytes_queued_;
+    prometheus::Gauge* awaiting_hello_ = nullptr;
+    prometheus::Gauge* viewers_ = nullptr;
+    prometheus::Gauge* deformers_ = nullptr;
+    prometheus::Gauge* admins_ = nullptr;
+    prometheus::Gauge* ending_ = nullptr;
+    prometheus::Gauge* queued_bytes_ = nullptr;
+    prometheus::Gauge* seq_ = nullptr;
+    prometheus::Gauge* ready_ = nullptr;
+};
+
+} // namespace terrain::server
