@@ -1,6 +1,7 @@
 #include "server_metrics.h"
 #include "session.h"
 #include "status_http.h"
+#include "tcp_listen.h"
 #include "worker_thread.h"
 
 #include <terrain/server/server.h>
@@ -34,23 +35,8 @@ Server::~Server() = default;
 
 Status Server::start() {
     const ServerConfig& config = hub_.config();
-    asio::error_code ec;
-    const asio::ip::address address = asio::ip::make_address(config.bind_address, ec);
-    if (ec)
-        return makeError(
-            ErrorCode::kOutOfRange, "bind address '" + config.bind_address + "': " + ec.message());
-    const asio::ip::tcp::endpoint endpoint(address, config.port);
-    acceptor_.open(endpoint.protocol(), ec);
-    if (!ec)
-        acceptor_.set_option(asio::ip::tcp::acceptor::reuse_address(true), ec);
-    if (!ec)
-        acceptor_.bind(endpoint, ec);
-    if (!ec)
-        acceptor_.listen(asio::socket_base::max_listen_connections, ec);
-    if (ec)
-        return makeError(
-            ErrorCode::kIo, "cannot listen on " + config.bind_address + ":" +
-                                std::to_string(config.port) + ": " + ec.message());
+    if (Status s = listenOn(acceptor_, config.bind_address, config.port, "listen"); !s)
+        return s;
     port_ = acceptor_.local_endpoint().port();
     if (config.metrics_port >= 0)
         if (Status s = status_http_->listen(

@@ -14,18 +14,38 @@ histogram(prometheus::Registry& r, const std::string& name, const std::string& h
     return prometheus::BuildHistogram().Name(name).Help(help).Register(r).Add({}, buckets);
 }
 
-prometheus::Counter*
-counter(prometheus::Registry& r, const std::string& name, const std::string& help) {
-    return &prometheus::BuildCounter().Name(name).Help(help).Register(r).Add({});
-}
+// the hub's running totals, exposed as counters
+struct CounterSpec {
+    std::uint64_t ServerStats::*total;
+    const char* name;
+    const char* help;
+};
+constexpr CounterSpec kCounters[] = {
+    {&ServerStats::sessions_accepted, "terrain_connections_accepted_total",
+     "TCP connections accepted"},
+    {&ServerStats::ops_accepted, "terrain_ops_accepted_total",
+     "deform requests applied and numbered"},
+    {&ServerStats::ops_refused, "terrain_ops_refused_total",
+     "deform requests refused (any reason)"},
+    {&ServerStats::commits, "terrain_commits_total", "group commits made durable"},
+    {&ServerStats::resyncs, "terrain_resyncs_total",
+     "sessions resynced by snapshot (backlog over budget)"},
+    {&ServerStats::slow_disconnects, "terrain_slow_disconnects_total",
+     "sessions closed as slow consumers"},
+    {&ServerStats::bad_frames, "terrain_bad_frames_total", "frames that did not decode"},
+    {&ServerStats::bad_tokens, "terrain_bad_tokens_total", "Hellos with a refused token"},
+    {&ServerStats::snapshots_built, "terrain_join_snapshots_built_total",
+     "join snapshots built (either kind)"},
+    {&ServerStats::snapshots_sent, "terrain_snapshot_joins_total",
+     "whole snapshots sent (joins and resyncs)"},
+    {&ServerStats::genesis_deltas_sent, "terrain_genesis_delta_joins_total",
+     "genesis deltas sent (joins)"},
+    {&ServerStats::repairs_served, "terrain_repairs_total", "repair requests answered"},
+    {&ServerStats::bytes_queued, "terrain_bytes_out_total",
+     "bytes of frames handed to sessions (before TCP)"},
+};
 
 } // namespace
-
-void ServerMetrics::Follower::follow(double total) {
-    if (total > seen)
-        counter->Increment(total - seen);
-    seen = total;
-}
 
 ServerMetrics::ServerMetrics()
     : commit_seconds_(histogram(
@@ -37,28 +57,9 @@ ServerMetrics::ServerMetrics()
           "terrain_snapshot_build_seconds",
           "a join snapshot or journal snapshot built on the snapshot thread")) {
     prometheus::Registry& r = *registry_;
-    sessions_accepted_.counter =
-        counter(r, "terrain_connections_accepted_total", "TCP connections accepted");
-    ops_accepted_.counter =
-        counter(r, "terrain_ops_accepted_total", "deform requests applied and numbered");
-    ops_refused_.counter =
-        counter(r, "terrain_ops_refused_total", "deform requests refused (any reason)");
-    commits_.counter = counter(r, "terrain_commits_total", "group commits made durable");
-    resyncs_.counter =
-        counter(r, "terrain_resyncs_total", "sessions resynced by snapshot (backlog over budget)");
-    slow_disconnects_.counter =
-        counter(r, "terrain_slow_disconnects_total", "sessions closed as slow consumers");
-    bad_frames_.counter = counter(r, "terrain_bad_frames_total", "frames that did not decode");
-    bad_tokens_.counter = counter(r, "terrain_bad_tokens_total", "Hellos with a refused token");
-    snapshots_built_.counter =
-        counter(r, "terrain_join_snapshots_built_total", "join snapshots built (either kind)");
-    snapshots_sent_.counter =
-        counter(r, "terrain_snapshot_joins_total", "whole snapshots sent (joins and resyncs)");
-    genesis_deltas_sent_.counter =
-        counter(r, "terrain_genesis_delta_joins_total", "genesis deltas sent (joins)");
-    repairs_served_.counter = counter(r, "terrain_repairs_total", "repair requests answered");
-    bytes_queued_.counter =
-        counter(r, "terrain_bytes_out_total", "bytes of frames handed to sessions (before TCP)");
+    for (const CounterSpec& c : kCounters)
+        followers_.push_back(
+            {c.total, &prometheus::BuildCounter().Name(c.name).Help(c.help).Register(r).Add({})});
     auto& sessions = prometheus::BuildGauge()
                          .Name("terrain_sessions")
                          .Help("sessions by state, and live ones by role")
@@ -87,19 +88,12 @@ ServerMetrics::ServerMetrics()
 
 std::string ServerMetrics::scrape(const ServerHub& hub) {
     const ServerStats& s = hub.stats();
-    sessions_accepted_.follow(static_cast<double>(s.sessions_accepted));
-    ops_accepted_.follow(static_cast<double>(s.ops_accepted));
-    ops_refused_.follow(static_cast<double>(s.ops_refused));
-    commits_.follow(static_cast<double>(s.commits));
-    resyncs_.follow(static_cast<double>(s.resyncs));
-    slow_disconnects_.follow(static_cast<double>(s.slow_disconnects));
-    bad_frames_.follow(static_cast<double>(s.bad_frames));
-    bad_tokens_.follow(static_cast<double>(s.bad_tokens));
-    snapshots_built_.follow(static_cast<double>(s.snapshots_built));
-    snapshots_sent_.follow(static_cast<double>(s.snapshots_sent));
-    genesis_deltas_sent_.follow(static_cast<double>(s.genesis_deltas_sent));
-    repairs_served_.follow(static_cast<double>(s.repairs_served));
-    bytes_queued_.follow(static_cast<double>(s.bytes_queued));
+    for (Follower& f : followers_) {
+        const auto total = static_cast<double>(s.*f.total);
+        if (total > f.seen)
+            f.counter->Increment(total - f.seen);
+        f.seen = total;
+    }
     const ServerHub::SessionCounts c = hub.sessionCounts();
     awaiting_hello_->Set(static_cast<double>(c.awaiting_hello));
     viewers_->Set(static_cast<double>(c.viewers));

@@ -14,6 +14,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace terrain::server {
 
@@ -29,29 +30,17 @@ class ServerMetrics {
     std::string scrape(const ServerHub& hub);
 
   private:
-    /// A counter that follows a running total kept elsewhere.
+    /// A counter that follows one of the hub's running totals.
     struct Follower {
+        std::uint64_t ServerStats::*total;
         prometheus::Counter* counter = nullptr;
         double seen = 0.0;
-        void follow(double total);
     };
 
     std::shared_ptr<prometheus::Registry> registry_ = std::make_shared<prometheus::Registry>();
     prometheus::Histogram& commit_seconds_;
     prometheus::Histogram& snapshot_seconds_;
-    Follower sessions_accepted_;
-    Follower ops_accepted_;
-    Follower ops_refused_;
-    Follower commits_;
-    Follower resyncs_;
-    Follower slow_disconnects_;
-    Follower bad_frames_;
-    Follower bad_tokens_;
-    Follower snapshots_built_;
-    Follower snapshots_sent_;
-    Follower genesis_deltas_sent_;
-    Follower repairs_served_;
-    Follower bytes_queued_;
+    std::vector<Follower> followers_;
     prometheus::Gauge* awaiting_hello_ = nullptr;
     prometheus::Gauge* viewers_ = nullptr;
     prometheus::Gauge* deformers_ = nullptr;

@@ -1,5 +1,7 @@
 #include "status_http.h"
 
+#include "tcp_listen.h"
+
 #include <chrono>
 #include <memory>
 
@@ -119,23 +121,8 @@ StatusHttp::StatusHttp(asio::io_context& io, Handler handler)
     : io_(io), handler_(std::move(handler)), acceptor_(io) {}
 
 Status StatusHttp::listen(const std::string& address, std::uint16_t port) {
-    asio::error_code ec;
-    const asio::ip::address ip = asio::ip::make_address(address, ec);
-    if (ec)
-        return makeError(
-            ErrorCode::kOutOfRange, "metrics bind address '" + address + "': " + ec.message());
-    const asio::ip::tcp::endpoint endpoint(ip, port);
-    acceptor_.open(endpoint.protocol(), ec);
-    if (!ec)
-        acceptor_.set_option(asio::ip::tcp::acceptor::reuse_address(true), ec);
-    if (!ec)
-        acceptor_.bind(endpoint, ec);
-    if (!ec)
-        acceptor_.listen(asio::socket_base::max_listen_connections, ec);
-    if (ec)
-        return makeError(
-            ErrorCode::kIo, "cannot serve metrics on " + address + ":" + std::to_string(port) +
-                                ": " + ec.message());
+    if (Status s = listenOn(acceptor_, address, port, "serve metrics"); !s)
+        return s;
     port_ = acceptor_.local_endpoint().port();
     accept();
     return Ok{};
