@@ -15,11 +15,14 @@
 
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <asio.hpp>
 #include <chrono>
+#include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <memory>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -33,6 +36,7 @@ struct Options {
     std::string bind = "0.0.0.0";
     int port = 7777;
     int metrics_port = -1;
+    std::string log_format = "text";
     std::string data_dir = "terrain-data";
     bool no_journal = false;
     std::string durability = "fsync";
@@ -92,11 +96,28 @@ Result<Terrain> genesisTerrain(const Options& o) {
     return makeProceduralMap(p);
 }
 
+/// printf into a string, for log messages.
+[[gnu::format(printf, 1, 2)]] std::string strf(const char* format, ...) {
+    std::va_list args;
+    va_start(args, format);
+    std::va_list again;
+    va_copy(again, args);
+    const int n = std::vsnprintf(nullptr, 0, format, args);
+    va_end(args);
+    std::string out(static_cast<std::size_t>(std::max(n, 0)) + 1, '\0');
+    std::vsnprintf(out.data(), out.size(), format, again);
+    va_end(again);
+    out.resize(static_cast<std::size_t>(std::max(n, 0)));
+    return out;
+}
+
 int serve(const Options& o) {
     std::setvbuf(stdout, nullptr, _IOLBF, 0);
+    const auto log = std::make_shared<server::LogWriter>(
+        o.log_format == "json" ? server::LogFormat::kJson : server::LogFormat::kText);
     Result<std::vector<std::uint8_t>> secret = loadSecret(o);
     if (!secret) {
-        std::printf("terrain-server: %s\n", secret.error().message.c_str());
+        log->error("config.secret", "terrain-server", secret.error().message);
         return 2;
     }
     std::optional<journal::Journal> journal;
@@ -107,43 +128,48 @@ int serve(const Options& o) {
     if (!o.no_journal) {
         Result<journal::Durability> durability = journal::parseDurability(o.durability);
         if (!durability) {
-            std::printf("terrain-server: %s\n", durability.error().message.c_str());
+            log->error("config.durability", "terrain-server", durability.error().message);
             return 2;
         }
         Result<journal::Journal> opened =
             journal::Journal::open(o.data_dir, {*durability, 2, o.op_log});
         if (!opened) {
-            std::printf("terrain-server: %s\n", opened.error().message.c_str());
+            log->error("journal.open_failed", "terrain-server", opened.error().message);
             return 1;
         }
         journal.emplace(std::move(*opened));
         if (journal->empty()) {
             Result<Terrain> genesis = genesisTerrain(o);
             if (!genesis) {
-                std::printf("terrain-server: map: %s\n", genesis.error().message.c_str());
+                log->error(
+                    "map.failed", "terrain-server",
+                    strf("map: %s", genesis.error().message.c_str()));
                 return 1;
             }
             if (Status s = journal->initialize(*genesis, 0); !s) {
-                std::printf("terrain-server: %s\n", s.error().message.c_str());
+                log->error("journal.init_failed", "terrain-server", s.error().message);
                 return 1;
             }
             terrain.emplace(std::move(*genesis));
-            std::printf("journal: new world in %s\n", o.data_dir.c_str());
+            log->info("journal.new_world", "journal", strf("new world in %s", o.data_dir.c_str()));
         } else {
             Result<journal::RecoveredState> recovered = journal->recover(o.op_log);
             if (!recovered) {
-                std::printf(
-                    "terrain-server: recovery refused: %s\n", recovered.error().message.c_str());
+                log->error(
+                    "journal.recovery_refused", "terrain-server",
+                    strf("recovery refused: %s", recovered.error().message.c_str()));
                 return 1;
             }
             for (const std::string& note : recovered->notes)
-                std::printf("journal: %s\n", note.c_str());
-            std::printf(
-                "journal: recovered seq %llu (snapshot %llu + %zu records replayed, hashes "
-                "verified, %zu torn bytes dropped)\n",
-                static_cast<unsigned long long>(recovered->seq),
-                static_cast<unsigned long long>(recovered->snapshot_seq),
-                recovered->replayed_records, recovered->torn_bytes_dropped);
+                log->info("journal.note", "journal", note);
+            log->info(
+                "journal.recovered", "journal",
+                strf(
+                    "recovered seq %llu (snapshot %llu + %zu records replayed, hashes verified, "
+                    "%zu torn bytes dropped)",
+                    static_cast<unsigned long long>(recovered->seq),
+                    static_cast<unsigned long long>(recovered->snapshot_seq),
+                    recovered->replayed_records, recovered->torn_bytes_dropped));
             seq = recovered->seq;
             terrain.emplace(std::move(recovered->terrain));
             history = std::move(recovered->history);
@@ -151,11 +177,14 @@ int serve(const Options& o) {
     } else {
         Result<Terrain> genesis = genesisTerrain(o);
         if (!genesis) {
-            std::printf("terrain-server: map: %s\n", genesis.error().message.c_str());
+            log->error(
+                "map.failed", "terrain-server", strf("map: %s", genesis.error().message.c_str()));
             return 1;
         }
         terrain.emplace(std::move(*genesis));
-        std::printf("journal: none (--no-journal): ops are acknowledged without durability\n");
+        log->info(
+            "journal.none", "journal",
+            "none (--no-journal): ops are acknowledged without durability");
     }
     const double load_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -169,13 +198,17 @@ int serve(const Options& o) {
             ops.push_back({r.seq, r.op, r.world_hash});
         // without it the world is still whole: clients behind then join by snapshot
         if (Status s = authority.restoreLog(history->base_seq, history->base_hash, ops); !s)
-            std::printf(
-                "journal: retained log not restored (clients behind will get snapshots): %s\n",
-                s.error().message.c_str());
+            log->info(
+                "journal.log_not_restored", "journal",
+                strf(
+                    "retained log not restored (clients behind will get snapshots): %s",
+                    s.error().message.c_str()));
         else
-            std::printf(
-                "journal: %zu ops retained for resumes (from seq %llu)\n", ops.size(),
-                static_cast<unsigned long long>(authority.log().resumableFrom()));
+            log->info(
+                "journal.log_restored", "journal",
+                strf(
+                    "%zu ops retained for resumes (from seq %llu)", ops.size(),
+                    static_cast<unsigned long long>(authority.log().resumableFrom())));
     }
 
     server::ServerConfig config;
@@ -197,24 +230,30 @@ int serve(const Options& o) {
 
     asio::io_context io(1);
     server::Server srv(io, config, authority, journal ? &*journal : nullptr);
+    srv.setLog(log);
     if (Status s = srv.start(); !s) {
-        std::printf("terrain-server: %s\n", s.error().message.c_str());
+        log->error("server.listen_failed", "terrain-server", s.error().message);
         return 1;
     }
-    std::printf(
-        "terrain-server: %dx%d map, seq %llu, world hash %016llx, loaded in %.0f ms; listening on "
-        "%s:%u\n",
-        spec.width, spec.height, static_cast<unsigned long long>(authority.seq()),
-        static_cast<unsigned long long>(authority.terrain().worldHash()), load_ms, o.bind.c_str(),
-        srv.port());
-    std::printf(
-        "terrain-server: clients up to %llu ops behind resume without a snapshot (--op-log %zu, "
-        "--outbound-budget %zu: half of it at 64 bytes an op)\n",
-        static_cast<unsigned long long>(srv.resumeWindow()), o.op_log, o.outbound_budget);
+    log->info(
+        "server.listening", "terrain-server",
+        strf(
+            "%dx%d map, seq %llu, world hash %016llx, loaded in %.0f ms; listening on %s:%u",
+            spec.width, spec.height, static_cast<unsigned long long>(authority.seq()),
+            static_cast<unsigned long long>(authority.terrain().worldHash()), load_ms,
+            o.bind.c_str(), srv.port()));
+    log->info(
+        "server.resume_window", "terrain-server",
+        strf(
+            "clients up to %llu ops behind resume without a snapshot (--op-log %zu, "
+            "--outbound-budget %zu: half of it at 64 bytes an op)",
+            static_cast<unsigned long long>(srv.resumeWindow()), o.op_log, o.outbound_budget));
     if (o.metrics_port >= 0)
-        std::printf(
-            "terrain-server: probes and metrics on http://%s:%u (/livez, /readyz, /metrics)\n",
-            o.bind.c_str(), srv.metricsPort());
+        log->info(
+            "server.metrics", "terrain-server",
+            strf(
+                "probes and metrics on http://%s:%u (/livez, /readyz, /metrics)", o.bind.c_str(),
+                srv.metricsPort()));
     if (!o.port_file.empty()) {
         std::ofstream(o.port_file) << srv.port() << "\n";
     }
@@ -222,7 +261,7 @@ int serve(const Options& o) {
     signals.async_wait([&](const asio::error_code& ec, int signal) {
         if (ec)
             return;
-        std::printf("terrain-server: signal %d: draining\n", signal);
+        log->info("server.draining", "terrain-server", strf("signal %d: draining", signal));
         srv.shutdown([&] { io.stop(); });
     });
     // a failed journal stops the server: nothing more may be acknowledged
@@ -241,19 +280,21 @@ int serve(const Options& o) {
     watch();
     io.run();
     const server::ServerStats& st = srv.stats();
-    std::printf(
-        "terrain-server: stopped at seq %llu, hash %016llx; %llu ops accepted, %llu refused, "
-        "%llu commits, %llu sessions, %llu resyncs, %llu slow disconnects\n",
-        static_cast<unsigned long long>(srv.broadcastSeq()),
-        static_cast<unsigned long long>(srv.broadcastHash()),
-        static_cast<unsigned long long>(st.ops_accepted),
-        static_cast<unsigned long long>(st.ops_refused),
-        static_cast<unsigned long long>(st.commits),
-        static_cast<unsigned long long>(st.sessions_accepted),
-        static_cast<unsigned long long>(st.resyncs),
-        static_cast<unsigned long long>(st.slow_disconnects));
+    log->info(
+        "server.stopped", "terrain-server",
+        strf(
+            "stopped at seq %llu, hash %016llx; %llu ops accepted, %llu refused, %llu commits, "
+            "%llu sessions, %llu resyncs, %llu slow disconnects",
+            static_cast<unsigned long long>(srv.broadcastSeq()),
+            static_cast<unsigned long long>(srv.broadcastHash()),
+            static_cast<unsigned long long>(st.ops_accepted),
+            static_cast<unsigned long long>(st.ops_refused),
+            static_cast<unsigned long long>(st.commits),
+            static_cast<unsigned long long>(st.sessions_accepted),
+            static_cast<unsigned long long>(st.resyncs),
+            static_cast<unsigned long long>(st.slow_disconnects)));
     if (srv.failed()) {
-        std::printf("terrain-server: failed: %s\n", srv.failure().c_str());
+        log->error("server.failed", "terrain-server", strf("failed: %s", srv.failure().c_str()));
         return 1;
     }
     return 0;
@@ -376,6 +417,13 @@ int main(int argc, char** argv) {
             "address; off unless given (0: any free port)")
         ->envname("TERRAIN_METRICS_PORT")
         ->check(CLI::Range(0, 65535));
+    serve_cmd
+        ->add_option(
+            "--log-format", o.log_format,
+            "text: a line per event, as people read it; json: JSON Lines (time, level, event, "
+            "message; session, peer and the event's fields where it has them)")
+        ->envname("TERRAIN_LOG_FORMAT")
+        ->check(CLI::IsMember({"text", "json"}));
     serve_cmd->add_option("--data-dir", o.data_dir, "journal and snapshots directory")
         ->envname("TERRAIN_DATA_DIR");
     serve_cmd->add_flag("--no-journal", o.no_journal, "keep no journal (ops are not durable)")

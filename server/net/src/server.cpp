@@ -13,7 +13,8 @@ namespace terrain::server {
 
 Server::Server(
     asio::io_context& io, ServerConfig config, Authority& authority, journal::Journal* journal)
-    : io_(io), acceptor_(io), metrics_(std::make_unique<ServerMetrics>()),
+    : io_(io), acceptor_(io), log_(std::make_shared<LogWriter>()),
+      metrics_(std::make_unique<ServerMetrics>()),
       status_http_(std::make_unique<StatusHttp>(
           io, [this](std::string_view path) { return statusPage(path); })),
       // snapshots are background work (the join cache is refreshed before anyone waits on it);
@@ -72,7 +73,11 @@ void Server::accept() {
             return;
         if (ec) {
             // e.g. out of file descriptors: back off instead of spinning on the error
-            std::printf("server: accept failed: %s; retrying in 100 ms\n", ec.message().c_str());
+            LogEvent e;
+            e.level = LogLevel::kWarning;
+            e.event = "server.accept_failed";
+            e.message = "accept failed: " + ec.message() + "; retrying in 100 ms";
+            log(e);
             scheduleAccept();
             return;
         }
@@ -128,6 +133,10 @@ std::int64_t Server::unixSeconds() const {
     return std::chrono::duration_cast<std::chrono::seconds>(
                std::chrono::system_clock::now().time_since_epoch())
         .count();
+}
+
+void Server::log(const LogEvent& event) {
+    log_->write(event);
 }
 
 void Server::shutdown(std::function<void()> done) {

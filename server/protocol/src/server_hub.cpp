@@ -249,8 +249,15 @@ void ServerHub::fail(const std::string& why) {
     failure_ = why;
     // nobody new may join a state that holds a non-durable op
     host_.stopAccepting();
-    std::printf("server: FATAL: %s\n", why.c_str());
-    std::fflush(stdout);
+    LogEvent e;
+    e.level = LogLevel::kError;
+    e.event = "server.fatal";
+    e.message = "FATAL: " + why;
+    host_.log(e);
+}
+
+void ServerHub::log(LogEvent event) {
+    host_.log(event);
 }
 
 void ServerHub::broadcast(std::vector<PendingOp>& ops) {
@@ -405,11 +412,17 @@ void ServerHub::writeJournalSnapshot() {
                 if (alive.expired())
                     return;
                 journal_snapshot_in_flight_ = false;
-                if (Status s = journal_->snapshotWritten(written); !s)
-                    std::printf(
-                        "journal: snapshot at seq %llu not kept (the segments still hold every "
-                        "record): %s\n",
-                        static_cast<unsigned long long>(seq), s.error().message.c_str());
+                if (Status s = journal_->snapshotWritten(written); !s) {
+                    LogEvent e;
+                    e.level = LogLevel::kWarning;
+                    e.event = "journal.snapshot_dropped";
+                    e.source = "journal";
+                    e.message =
+                        "snapshot at seq " + std::to_string(seq) +
+                        " not kept (the segments still hold every record): " + s.error().message;
+                    e.fields.push_back({"seq", std::to_string(seq), true});
+                    host_.log(e);
+                }
             };
         });
 }

@@ -219,14 +219,22 @@ void SessionMachine::onHello(const pb::Hello& hello) {
     w->set_deform_rate_per_second(config.deform_rate_per_second);
     w->set_genesis_hash(hub_.genesisHash());
     sendControl(welcome);
-    std::printf(
-        "session %llu (%s): player %llu as %s, %s at seq %llu\n",
-        static_cast<unsigned long long>(id_), peer_.c_str(),
-        static_cast<unsigned long long>(claims_.player_id), toString(claims_.role),
-        resume           ? "resumes"
-        : holdsGenesis() ? "joins by genesis delta"
-                         : "joins by snapshot",
-        static_cast<unsigned long long>(current));
+    {
+        const char* how = resume ? "resume" : holdsGenesis() ? "genesis_delta" : "snapshot";
+        LogEvent e = sessionEvent("session.join");
+        e.message = "player " + std::to_string(claims_.player_id) + " as " +
+                    toString(claims_.role) + ", " +
+                    (resume           ? "resumes"
+                     : holdsGenesis() ? "joins by genesis delta"
+                                      : "joins by snapshot") +
+                    " at seq " + std::to_string(current);
+        e.fields = {
+            {"player", std::to_string(claims_.player_id), true},
+            {"role", toString(claims_.role), false},
+            {"join", how, false},
+            {"seq", std::to_string(current), true}};
+        hub_.log(std::move(e));
+    }
     if (resume)
         sendTail(hello.last_seq());
     else
@@ -560,9 +568,12 @@ void SessionMachine::endWrite(bool ok) {
 void SessionMachine::close(pb::Reason reason, const std::string& message) {
     if (state_ == State::kClosing || state_ == State::kClosed)
         return;
-    std::printf(
-        "session %llu (%s): closing: %s\n", static_cast<unsigned long long>(id_), peer_.c_str(),
-        wire::describe(reason, message).c_str());
+    {
+        LogEvent e = sessionEvent("session.close");
+        e.message = "closing: " + wire::describe(reason, message);
+        e.fields = {{"reason", pb::Reason_Name(reason), false}};
+        hub_.log(std::move(e));
+    }
     pb::Envelope bye;
     bye.mutable_disconnect()->set_reason(reason);
     bye.mutable_disconnect()->set_message(message);
@@ -575,6 +586,14 @@ void SessionMachine::close(pb::Reason reason, const std::string& message) {
         link_->stopReading();
     setDeadline(now_ + hub_.config().close_linger_seconds);
     enqueue(wire::encodeFrame(bye), FrameClass::kControl);
+}
+
+LogEvent SessionMachine::sessionEvent(std::string name) const {
+    LogEvent e;
+    e.event = std::move(name);
+    e.session = id_;
+    e.peer = peer_;
+    return e;
 }
 
 void SessionMachine::finish() {

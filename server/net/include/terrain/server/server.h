@@ -6,6 +6,7 @@
 
 #include <terrain/journal/journal.h>
 #include <terrain/server/authority.h>
+#include <terrain/server/log_writer.h>
 #include <terrain/server/server_hub.h>
 #include <terrain/wire/codec.h>
 #include <terrain/wire/snapshot_stream.h>
@@ -62,6 +63,8 @@ class Server : private HubHost {
     /// Called on the io thread whenever a batch of ops has been broadcast (benchmarks, logs).
     std::function<void(std::uint64_t seq)> on_broadcast;
     ServerHub& hub() { return hub_; }
+    /// Where the server logs (default: text lines on stdout). Set before start().
+    void setLog(std::shared_ptr<LogSink> log) { log_ = std::move(log); }
 
   private:
     void post(std::function<void()> fn) override;
@@ -69,6 +72,7 @@ class Server : private HubHost {
     void runSnapshot(Job job) override;
     void stopAccepting() override;
     std::int64_t unixSeconds() const override;
+    void log(const LogEvent& event) override;
 
     void accept();
     void scheduleAccept();
@@ -77,6 +81,7 @@ class Server : private HubHost {
     asio::io_context& io_;
     asio::ip::tcp::acceptor acceptor_;
     std::uint16_t port_ = 0;
+    std::shared_ptr<LogSink> log_;
     // the workers' jobs record into the metrics, which outlive them
     std::unique_ptr<ServerMetrics> metrics_;
     std::unique_ptr<StatusHttp> status_http_;

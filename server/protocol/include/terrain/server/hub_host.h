@@ -4,6 +4,8 @@
 // the work that must not stall it. The Asio server gives it an io_context and two
 // WorkerThreads; a simulation gives it a queue it runs when it chooses (tests, fuzzing).
 
+#include <terrain/server/log_event.h>
+
 #include <cstdint>
 #include <functional>
 
@@ -26,6 +28,8 @@ class HubHost {
     virtual void stopAccepting() = 0;
     /// Seconds since the Unix epoch (token expiry).
     virtual std::int64_t unixSeconds() const = 0;
+    /// The server's log: joins, closes, failures.
+    virtual void log(const LogEvent& event) = 0;
 };
 
 } // namespace terrain::server

@@ -119,6 +119,8 @@ class ServerHub {
     const ServerConfig& config() const { return config_; }
     const ServerStats& stats() const { return stats_; }
     std::size_t sessionCount() const { return sessions_.size(); }
+    /// To the host's log (sessions log through here).
+    void log(LogEvent event);
     /// The sessions by state, and the live ones by role (metrics).
     struct SessionCounts {
         std::size_t awaiting_hello = 0;

@@ -7,6 +7,7 @@
 // the writing is done. Runs on the hub's thread.
 
 #include <terrain/server/auth_token.h>
+#include <terrain/server/log_event.h>
 #include <terrain/server/outbound_queue.h>
 #include <terrain/server/rate_limiter.h>
 #include <terrain/wire/codec.h>
@@ -103,6 +104,9 @@ class SessionMachine : public std::enable_shared_from_this<SessionMachine> {
 
   private:
     enum class State { kAwaitHello, kLive, kClosing, kClosed };
+
+    /// A log event of this session (its id and peer filled in).
+    LogEvent sessionEvent(std::string name) const;
 
     /// Decodes and handles every complete frame read.
     void drainFrames(double now);
