@@ -75,17 +75,21 @@ void LogWriter::write(const LogEvent& event) {
 
 void LogWriter::info(
     const std::string& event, const std::string& source, const std::string& message) {
-    LogEvent e;
-    e.event = event;
-    e.source = source;
-    e.message = message;
-    write(e);
+    writePlain(LogLevel::kInfo, event, source, message);
 }
 
 void LogWriter::error(
     const std::string& event, const std::string& source, const std::string& message) {
+    writePlain(LogLevel::kError, event, source, message);
+}
+
+void LogWriter::writePlain(
+    LogLevel level,
+    const std::string& event,
+    const std::string& source,
+    const std::string& message) {
     LogEvent e;
-    e.level = LogLevel::kError;
+    e.level = level;
     e.event = event;
     e.source = source;
     e.message = message;

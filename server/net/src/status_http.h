@@ -32,8 +32,6 @@ class StatusHttp {
     /// the address and the OS error.
     Status listen(const std::string& address, std::uint16_t port);
     std::uint16_t port() const { return port_; }
-    /// Stops accepting; requests in progress finish.
-    void close();
 
   private:
     void accept();

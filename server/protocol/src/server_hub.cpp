@@ -4,7 +4,6 @@
 #include <terrain/wire/op_batch.h>
 
 #include <algorithm>
-#include <cstdio>
 #include <future>
 #include <string_view>
 

@@ -4,7 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
+#include <utility>
 
 namespace terrain::server {
 namespace pb = wire::pb;
@@ -220,14 +220,14 @@ void SessionMachine::onHello(const pb::Hello& hello) {
     w->set_genesis_hash(hub_.genesisHash());
     sendControl(welcome);
     {
-        const char* how = resume ? "resume" : holdsGenesis() ? "genesis_delta" : "snapshot";
+        // the join's kind: a field for log queries, words for people
+        const auto [how, words] = resume ? std::pair{"resume", "resumes"}
+                                  : holdsGenesis()
+                                      ? std::pair{"genesis_delta", "joins by genesis delta"}
+                                      : std::pair{"snapshot", "joins by snapshot"};
         LogEvent e = sessionEvent("session.join");
         e.message = "player " + std::to_string(claims_.player_id) + " as " +
-                    toString(claims_.role) + ", " +
-                    (resume           ? "resumes"
-                     : holdsGenesis() ? "joins by genesis delta"
-                                      : "joins by snapshot") +
-                    " at seq " + std::to_string(current);
+                    toString(claims_.role) + ", " + words + " at seq " + std::to_string(current);
         e.fields = {
             {"player", std::to_string(claims_.player_id), true},
             {"role", toString(claims_.role), false},

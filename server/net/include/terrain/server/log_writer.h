@@ -29,6 +29,12 @@ class LogWriter : public LogSink {
     std::string format(const LogEvent& event) const;
 
   private:
+    void writePlain(
+        LogLevel level,
+        const std::string& event,
+        const std::string& source,
+        const std::string& message);
+
     LogFormat format_;
     std::FILE* out_;
     std::mutex mutex_; ///< workers and the io thread may log at once
