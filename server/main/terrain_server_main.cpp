@@ -7,6 +7,7 @@
 #include <terrain/io/dem_import.h>
 #include <terrain/journal/journal.h>
 #include <terrain/procedural_map.h>
+#include <terrain/server/agones_sdk.h>
 #include <terrain/server/auth_token.h>
 #include <terrain/server/authority.h>
 #include <terrain/server/server.h>
@@ -37,6 +38,9 @@ struct Options {
     int port = 7777;
     int metrics_port = -1;
     std::string log_format = "text";
+    bool agones = false;
+    int agones_sdk_port = 9358;
+    int agones_health_ms = 2000;
     std::string data_dir = "terrain-data";
     bool no_journal = false;
     std::string durability = "fsync";
@@ -257,12 +261,30 @@ int serve(const Options& o) {
     if (!o.port_file.empty()) {
         std::ofstream(o.port_file) << srv.port() << "\n";
     }
+    std::optional<server::AgonesSdk> agones;
+    if (o.agones) {
+        server::AgonesSdk::Options sdk;
+        sdk.port = static_cast<std::uint16_t>(o.agones_sdk_port);
+        sdk.health_every = std::chrono::milliseconds(o.agones_health_ms);
+        agones.emplace(
+            io, sdk, [&] { return !srv.failed() && !srv.draining(); }, log);
+        agones->start();
+    }
+    // after the drain, Agones hears Shutdown (the GameServer goes; a fleet replaces it)
+    const auto drain = [&] {
+        srv.shutdown([&] {
+            if (agones)
+                agones->shutdown([&] { io.stop(); });
+            else
+                io.stop();
+        });
+    };
     asio::signal_set signals(io, SIGTERM, SIGINT);
     signals.async_wait([&](const asio::error_code& ec, int signal) {
         if (ec)
             return;
         log->info("server.draining", "terrain-server", strf("signal %d: draining", signal));
-        srv.shutdown([&] { io.stop(); });
+        drain();
     });
     // a failed journal stops the server: nothing more may be acknowledged
     asio::steady_timer watchdog(io);
@@ -272,7 +294,7 @@ int serve(const Options& o) {
             if (ec)
                 return;
             if (srv.failed())
-                srv.shutdown([&] { io.stop(); });
+                drain();
             else
                 watch();
         });
@@ -424,6 +446,25 @@ int main(int argc, char** argv) {
             "message; session, peer and the event's fields where it has them)")
         ->envname("TERRAIN_LOG_FORMAT")
         ->check(CLI::IsMember({"text", "json"}));
+    serve_cmd
+        ->add_flag(
+            "--agones", o.agones,
+            "call the Agones SDK over its local HTTP gateway: Ready once serving, Health while "
+            "healthy, Shutdown after a drain")
+        ->envname("TERRAIN_AGONES");
+    serve_cmd
+        ->add_option(
+            "--agones-sdk-port", o.agones_sdk_port,
+            "with --agones: the SDK gateway's port on 127.0.0.1 (Agones sets AGONES_SDK_HTTP_PORT)")
+        ->envname("AGONES_SDK_HTTP_PORT")
+        ->check(CLI::Range(1, 65535));
+    serve_cmd
+        ->add_option(
+            "--agones-health-ms", o.agones_health_ms,
+            "with --agones: milliseconds between health pings (below the GameServer's "
+            "health.periodSeconds)")
+        ->envname("TERRAIN_AGONES_HEALTH_MS")
+        ->check(CLI::Range(50, 600000));
     serve_cmd->add_option("--data-dir", o.data_dir, "journal and snapshots directory")
         ->envname("TERRAIN_DATA_DIR");
     serve_cmd->add_flag("--no-journal", o.no_journal, "keep no journal (ops are not durable)")

@@ -49,6 +49,8 @@ class Server : private HubHost {
 
     /// Set when the journal failed: the server stops serving and the process must exit non-zero.
     bool failed() const { return hub_.failed(); }
+    /// True from shutdown() on: readiness is false, new connections are refused.
+    bool draining() const { return hub_.shuttingDown(); }
     const std::string& failure() const { return hub_.failure(); }
 
     const ServerStats& stats() const { return hub_.stats(); }
