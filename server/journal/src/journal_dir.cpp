@@ -216,7 +216,7 @@ Result<ReplayResult> replaySegments(
             result.last_seq = record.seq;
             ++result.replayed;
             if (after) {
-                if (auto s = after(record.seq, terrain); !s)
+                if (auto s = after(record, terrain); !s)
                     return s.error();
             }
         }

@@ -69,8 +69,8 @@ struct ReplayResult {
     std::optional<std::uint64_t> newest_next; ///< seq the newest segment expects next, if read
 };
 
-/// Called after each replayed record with its seq and the state after it.
-using AfterRecord = std::function<Status(std::uint64_t seq, const Terrain& terrain)>;
+/// Called after each replayed record with the record and the state after it.
+using AfterRecord = std::function<Status(const JournalRecord& record, const Terrain& terrain)>;
 
 /// Replays, on `terrain` (the state at `base_seq`), every record after base_seq found in
 /// `segments` (ascending; the last is the newest). Checks continuity between segments, skips

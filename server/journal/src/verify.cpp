@@ -6,6 +6,9 @@
 #include <terrain/journal/journal.h>
 #include <terrain/snapshot.h>
 
+#include <functional>
+#include <optional>
+
 namespace terrain::journal {
 namespace {
 
@@ -25,9 +28,10 @@ Result<DecodedSnapshot> loadSnapshot(const detail::DirFile& file) {
     return decoded;
 }
 
-} // namespace
+/// Called with the base state (record null), then after each record with the state after it.
+using Visit = std::function<void(const Terrain& state, const JournalRecord* record)>;
 
-Result<VerifyReport> verifyJournal(const std::filesystem::path& dir) {
+Result<VerifyReport> replayAll(const std::filesystem::path& dir, const Visit& visit) {
     auto listing = detail::listJournalDir(dir);
     if (!listing)
         return listing.error();
@@ -42,6 +46,8 @@ Result<VerifyReport> verifyJournal(const std::filesystem::path& dir) {
     report.base_seq = base->sequence;
     report.snapshots_checked = 1;
     Terrain terrain = std::move(base->terrain);
+    if (visit)
+        visit(terrain, nullptr);
 
     // every later snapshot must equal the replayed state at its seq
     std::size_t next_snapshot = 1;
@@ -61,8 +67,13 @@ Result<VerifyReport> verifyJournal(const std::filesystem::path& dir) {
         }
         return Ok{};
     };
-    auto replay =
-        detail::replaySegments(listing->segments, report.base_seq, terrain, checkSnapshots);
+    auto replay = detail::replaySegments(
+        listing->segments, report.base_seq, terrain,
+        [&](const JournalRecord& record, const Terrain& state) {
+            if (visit)
+                visit(state, &record);
+            return checkSnapshots(record.seq, state);
+        });
     if (!replay)
         return replay.error();
     if (next_snapshot < snapshots.size())
@@ -76,6 +87,26 @@ Result<VerifyReport> verifyJournal(const std::filesystem::path& dir) {
     report.final_hash = terrain.worldHash();
     report.torn_bytes = replay->torn_bytes;
     return report;
+}
+
+} // namespace
+
+Result<VerifyReport> verifyJournal(const std::filesystem::path& dir) {
+    return replayAll(dir, nullptr);
+}
+
+Result<JournalHistory> readJournal(const std::filesystem::path& dir) {
+    std::optional<Terrain> base;
+    std::vector<JournalRecord> records;
+    auto report = replayAll(dir, [&](const Terrain& state, const JournalRecord* record) {
+        if (!record)
+            base.emplace(state);
+        else
+            records.push_back(*record);
+    });
+    if (!report)
+        return report.error();
+    return JournalHistory{std::move(*base), report->base_seq, std::move(records), *report};
 }
 
 } // namespace terrain::journal

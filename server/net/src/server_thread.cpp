@@ -29,6 +29,8 @@ ServerThread::start(Terrain terrain, ServerThreadOptions options) {
     // built and bound before the thread runs the loop, so nothing races with it
     impl->server =
         std::make_unique<Server>(impl->io, options.config, *impl->authority, options.journal);
+    if (options.log)
+        impl->server->setLog(options.log);
     if (Status s = impl->server->start(); !s)
         return s.error();
     Impl* raw = impl.get();

@@ -262,4 +262,17 @@ struct VerifyReport {
 /// a snapshot beyond the last record), kHashMismatch (record or snapshot hash), apply()'s code.
 Result<VerifyReport> verifyJournal(const std::filesystem::path& dir);
 
+/// A journal's history, verified as verifyJournal() does: the state at its oldest snapshot and
+/// every record after it, in seq order.
+struct JournalHistory {
+    Terrain base;
+    std::uint64_t base_seq = 0;
+    std::vector<JournalRecord> records; ///< base_seq + 1 ... report.last_seq
+    VerifyReport report;
+};
+
+/// verifyJournal(), keeping the base state and the records (for replays through a server).
+/// Errors: verifyJournal()'s.
+Result<JournalHistory> readJournal(const std::filesystem::path& dir);
+
 } // namespace terrain::journal

@@ -25,6 +25,8 @@ struct ServerThreadOptions {
     /// Runs on the authority before the server exists: ops applied there are the server's
     /// history, retained in its log (benchmarks grow worlds this way).
     std::function<void(Authority&)> prepare;
+    /// Where the server logs; null: text lines on stdout (Server's default).
+    std::shared_ptr<LogSink> log;
 };
 
 class ServerThread {
