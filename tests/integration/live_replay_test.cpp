@@ -60,13 +60,13 @@ TEST(LiveReplay, EveryClientMatchesTheJournalAtEverySeq) {
     auto history = journal::readJournal(dir);
     ASSERT_TRUE(history.ok()) << history.error().message;
     ASSERT_EQ(history->records.size(), 80u);
-    replay::LiveReplayOptions options;
+    replay::LiveRunOptions options;
     options.clients = 3;
     options.window = 8;
     options.time_limit_seconds = 60;
     auto run = replay::runLiveReplay(*history, options);
     ASSERT_TRUE(run.ok()) << run.error().message;
-    EXPECT_TRUE(run->agreed());
+    EXPECT_TRUE(replay::replayAgreed(*history, *run));
     EXPECT_FALSE(run->first_divergence);
     EXPECT_EQ(run->ops_fed, 80u);
     ASSERT_EQ(run->clients.size(), 3u);
@@ -86,7 +86,7 @@ TEST(LiveReplay, ACorruptedReplicaIsCaughtAtItsSeqWithADesyncReport) {
     const WorldSpec spec = history->base.spec();
     // a local op the server never sent, on client 2 at seq 25: a mound at (100 m, 20 m)
     const DeformOp stray = *quantizeOp({OpKind::kRaise, 100.0, 20.0, 3.0, 1.5, 1.0}, spec);
-    replay::LiveReplayOptions options;
+    replay::LiveRunOptions options;
     options.clients = 3;
     options.window = 4;
     options.time_limit_seconds = 60;
@@ -97,14 +97,14 @@ TEST(LiveReplay, ACorruptedReplicaIsCaughtAtItsSeqWithADesyncReport) {
     };
     auto run = replay::runLiveReplay(*history, options);
     ASSERT_TRUE(run.ok()) << run.error().message;
-    EXPECT_FALSE(run->agreed());
+    EXPECT_FALSE(replay::replayAgreed(*history, *run));
     ASSERT_TRUE(run->first_divergence);
     const replay::Divergence& d = *run->first_divergence;
     EXPECT_EQ(d.seq, 25u);
     EXPECT_EQ(d.client, 2u);
     EXPECT_FALSE(d.server_differs) << "the server was right; the client had diverged";
     EXPECT_EQ(d.op, history->records[24].op);
-    EXPECT_EQ(d.journal_hash, history->records[24].world_hash);
+    EXPECT_EQ(d.expected_hash, history->records[24].world_hash);
     // the others never differed; the corrupted one was repaired and ends on the journal's world
     EXPECT_EQ(run->clients[0].mismatches, 0u);
     EXPECT_EQ(run->clients[1].mismatches, 0u);
@@ -114,11 +114,11 @@ TEST(LiveReplay, ACorruptedReplicaIsCaughtAtItsSeqWithADesyncReport) {
 
     auto expected = replay::stateAt(*history, d.seq);
     ASSERT_TRUE(expected.ok());
-    EXPECT_EQ(expected->worldHash(), d.journal_hash);
+    EXPECT_EQ(expected->worldHash(), d.expected_hash);
     EXPECT_TRUE(replay::differingTiles(*expected, *expected).empty());
     const fs::path report = dir / "desync-25";
-    replay::DesyncFacts facts{d.seq,        d.op,           "client-2",
-                              dir.string(), d.journal_hash, d.observed_hash};
+    replay::DesyncFacts facts{d.seq,           d.op,           "client-2", dir.string(),
+                              d.expected_hash, d.observed_hash};
     ASSERT_TRUE(replay::writeDesyncReport(report, facts, *expected, *d.observed).ok());
 
     const auto json = nlohmann::json::parse(readAll(report / "report.json"));
