@@ -10,6 +10,7 @@
 #include <terrain/server/agones_sdk.h>
 #include <terrain/server/auth_token.h>
 #include <terrain/server/authority.h>
+#include <terrain/server/recovery_status.h>
 #include <terrain/server/server.h>
 #include <terrain/wire/codec.h>
 #include <terrain/wire/framing.h>
@@ -124,6 +125,18 @@ int serve(const Options& o) {
         log->error("config.secret", "terrain-server", secret.error().message);
         return 2;
     }
+    // while the journal recovers, the probes say alive and not ready (the Server's own
+    // responder takes the port once it exists)
+    std::unique_ptr<server::RecoveryStatus> recovering;
+    if (o.metrics_port >= 0) {
+        auto status =
+            server::RecoveryStatus::start(o.bind, static_cast<std::uint16_t>(o.metrics_port));
+        if (!status) {
+            log->error("server.listen_failed", "terrain-server", status.error().message);
+            return 1;
+        }
+        recovering = std::move(*status);
+    }
     std::optional<journal::Journal> journal;
     std::optional<Terrain> terrain;
     std::uint64_t seq = 0;
@@ -232,6 +245,8 @@ int serve(const Options& o) {
     config.batch_hash_per_op = o.batch_hash_per_op;
     config.token_secret = *secret;
 
+    if (recovering)
+        recovering->stop();
     asio::io_context io(1);
     server::Server srv(io, config, authority, journal ? &*journal : nullptr);
     srv.setLog(log);

@@ -4,6 +4,8 @@
 #include "support/net_harness.h"
 #include "support/terrain_builders.h"
 
+#include <terrain/server/recovery_status.h>
+
 #include <sstream>
 
 namespace terrain::testing {
@@ -72,7 +74,19 @@ TEST(ServerMetrics, ProbesAnswerAndFiguresFollowRealTraffic) {
 
     const std::string after = get(port, "/metrics");
     EXPECT_EQ(sample(after, "terrain_ops_accepted_total"), 5.0);
-    EXPECT_EQ(sample(after, "terrain_ops_refused_total"), 1.0);
+    // refusals by reason: the off-map crater's
+    EXPECT_EQ(sample(after, "terrain_ops_refused_total{reason=\"REASON_OUTSIDE_MAP\"}"), 1.0);
+    EXPECT_EQ(sample(before, "terrain_ops_refused_total{reason=\"REASON_OUTSIDE_MAP\"}"), -1.0);
+    // the hub's timings: 5 applies, 5 broadcasts, 2 joins; bytes both ways
+    EXPECT_EQ(sample(after, "terrain_op_apply_seconds_count"), 5.0);
+    EXPECT_GT(sample(after, "terrain_op_apply_seconds_sum"), 0.0);
+    EXPECT_EQ(sample(after, "terrain_broadcast_latency_seconds_count"), 5.0);
+    EXPECT_GE(
+        sample(after, "terrain_broadcast_latency_seconds_sum"),
+        sample(after, "terrain_op_apply_seconds_sum"));
+    EXPECT_EQ(sample(after, "terrain_join_seconds_count"), 2.0);
+    EXPECT_GT(sample(after, "terrain_bytes_in_total"), 0.0);
+    EXPECT_GT(sample(after, "terrain_bytes_out_total"), sample(after, "terrain_bytes_in_total"));
     EXPECT_EQ(sample(after, "terrain_broadcast_seq"), 5.0);
     EXPECT_EQ(sample(after, "terrain_sessions{role=\"deformer\",state=\"live\"}"), 1.0);
     EXPECT_EQ(sample(after, "terrain_sessions{role=\"viewer\",state=\"live\"}"), 1.0);
@@ -97,6 +111,29 @@ TEST(ServerMetrics, ProbesAnswerAndFiguresFollowRealTraffic) {
     EXPECT_NE(draining.find("draining"), std::string::npos);
     EXPECT_EQ(statusOf(get(port, "/livez")), 200);
     EXPECT_EQ(sample(get(port, "/metrics"), "terrain_ready"), 0.0);
+}
+
+TEST(ServerMetrics, WhileTheJournalRecoversTheProbesSayAliveAndNotReady) {
+    auto status = server::RecoveryStatus::start("127.0.0.1", 0);
+    ASSERT_TRUE(status.ok()) << status.error().message;
+    const std::uint16_t port = (*status)->port();
+    ASSERT_NE(port, 0);
+    EXPECT_EQ(statusOf(get(port, "/livez")), 200);
+    const std::string ready = get(port, "/readyz");
+    EXPECT_EQ(statusOf(ready), 503);
+    EXPECT_NE(ready.find("recovering"), std::string::npos);
+    EXPECT_EQ(statusOf(get(port, "/metrics")), 503);
+    EXPECT_EQ(statusOf(get(port, "/nowhere")), 404);
+    (*status)->stop();
+    (*status)->stop(); // idempotent
+    // the port is free for the Server's own responder
+    asio::io_context io;
+    asio::ip::tcp::acceptor again(io);
+    again.open(asio::ip::tcp::v4());
+    again.set_option(asio::ip::tcp::acceptor::reuse_address(true));
+    asio::error_code ec;
+    again.bind({asio::ip::make_address("127.0.0.1"), port}, ec);
+    EXPECT_FALSE(ec) << ec.message();
 }
 
 } // namespace

@@ -139,6 +139,14 @@ void Server::log(const LogEvent& event) {
     log_->write(event);
 }
 
+double Server::monotonicSeconds() const {
+    return Session::now(); // the clock the sessions' `now` comes from
+}
+
+void Server::observe(HubTiming timing, double seconds) {
+    metrics_->observe(timing, seconds);
+}
+
 void Server::shutdown(std::function<void()> done) {
     if (hub_.shuttingDown())
         return;

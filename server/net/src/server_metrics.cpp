@@ -25,8 +25,6 @@ constexpr CounterSpec kCounters[] = {
      "TCP connections accepted"},
     {&ServerStats::ops_accepted, "terrain_ops_accepted_total",
      "deform requests applied and numbered"},
-    {&ServerStats::ops_refused, "terrain_ops_refused_total",
-     "deform requests refused (any reason)"},
     {&ServerStats::commits, "terrain_commits_total", "group commits made durable"},
     {&ServerStats::resyncs, "terrain_resyncs_total",
      "sessions resynced by snapshot (backlog over budget)"},
@@ -43,6 +41,7 @@ constexpr CounterSpec kCounters[] = {
     {&ServerStats::repairs_served, "terrain_repairs_total", "repair requests answered"},
     {&ServerStats::bytes_queued, "terrain_bytes_out_total",
      "bytes of frames handed to sessions (before TCP)"},
+    {&ServerStats::bytes_received, "terrain_bytes_in_total", "bytes read from sessions"},
 };
 
 } // namespace
@@ -55,11 +54,29 @@ ServerMetrics::ServerMetrics()
       snapshot_seconds_(histogram(
           *registry_,
           "terrain_snapshot_build_seconds",
-          "a join snapshot or journal snapshot built on the snapshot thread")) {
+          "a join snapshot or journal snapshot built on the snapshot thread")),
+      apply_seconds_(histogram(
+          *registry_,
+          "terrain_op_apply_seconds",
+          "an accepted op's validation and apply to the authority's terrain, on the io thread")),
+      broadcast_seconds_(histogram(
+          *registry_,
+          "terrain_broadcast_latency_seconds",
+          "a deform request's arrival to its op's broadcast and acknowledgement (the group "
+          "commit's fdatasync included)")),
+      join_seconds_(histogram(
+          *registry_,
+          "terrain_join_seconds",
+          "a Hello to the join's frames queued (resume, snapshot or genesis delta; waits for a "
+          "snapshot build included)")) {
     prometheus::Registry& r = *registry_;
     for (const CounterSpec& c : kCounters)
         followers_.push_back(
             {c.total, &prometheus::BuildCounter().Name(c.name).Help(c.help).Register(r).Add({})});
+    refused_ = &prometheus::BuildCounter()
+                    .Name("terrain_ops_refused_total")
+                    .Help("deform requests refused, by reason (the wire's REASON_ name)")
+                    .Register(r);
     auto& sessions = prometheus::BuildGauge()
                          .Name("terrain_sessions")
                          .Help("sessions by state, and live ones by role")
@@ -86,6 +103,20 @@ ServerMetrics::ServerMetrics()
                   .Add({});
 }
 
+void ServerMetrics::observe(HubTiming timing, double seconds) {
+    switch (timing) {
+    case HubTiming::kApply:
+        apply_seconds_.Observe(seconds);
+        break;
+    case HubTiming::kBroadcast:
+        broadcast_seconds_.Observe(seconds);
+        break;
+    case HubTiming::kJoin:
+        join_seconds_.Observe(seconds);
+        break;
+    }
+}
+
 std::string ServerMetrics::scrape(const ServerHub& hub) {
     const ServerStats& s = hub.stats();
     for (Follower& f : followers_) {
@@ -93,6 +124,16 @@ std::string ServerMetrics::scrape(const ServerHub& hub) {
         if (total > f.seen)
             f.counter->Increment(total - f.seen);
         f.seen = total;
+    }
+    for (std::size_t reason = 0; reason < kReasonSlots; ++reason) {
+        const auto total = static_cast<double>(s.refused_by_reason[reason]);
+        if (total > refused_seen_[reason]) {
+            const std::string name = wire::pb::Reason_IsValid(static_cast<int>(reason))
+                                         ? wire::pb::Reason_Name(static_cast<int>(reason))
+                                         : "REASON_" + std::to_string(reason);
+            refused_->Add({{"reason", name}}).Increment(total - refused_seen_[reason]);
+            refused_seen_[reason] = total;
+        }
     }
     const ServerHub::SessionCounts c = hub.sessionCounts();
     awaiting_hello_->Set(static_cast<double>(c.awaiting_hello));

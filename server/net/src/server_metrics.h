@@ -12,6 +12,7 @@
 #include <prometheus/histogram.h>
 #include <prometheus/registry.h>
 
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -25,6 +26,8 @@ class ServerMetrics {
     /// Any thread.
     void observeCommit(double seconds) { commit_seconds_.Observe(seconds); }
     void observeSnapshotBuild(double seconds) { snapshot_seconds_.Observe(seconds); }
+    /// Io thread: the hub's own timings.
+    void observe(HubTiming timing, double seconds);
 
     /// Io thread: the text exposition with the hub's figures as they stand.
     std::string scrape(const ServerHub& hub);
@@ -40,6 +43,12 @@ class ServerMetrics {
     std::shared_ptr<prometheus::Registry> registry_ = std::make_shared<prometheus::Registry>();
     prometheus::Histogram& commit_seconds_;
     prometheus::Histogram& snapshot_seconds_;
+    prometheus::Histogram& apply_seconds_;
+    prometheus::Histogram& broadcast_seconds_;
+    prometheus::Histogram& join_seconds_;
+    /// terrain_ops_refused_total{reason}: series made as reasons first appear
+    prometheus::Family<prometheus::Counter>* refused_ = nullptr;
+    std::array<double, kReasonSlots> refused_seen_{};
     std::vector<Follower> followers_;
     prometheus::Gauge* awaiting_hello_ = nullptr;
     prometheus::Gauge* viewers_ = nullptr;

@@ -27,6 +27,8 @@ class Session : public std::enable_shared_from_this<Session>, private SessionLin
 
     /// Registers with the hub and starts reading.
     void start();
+    /// Seconds on the monotonic clock every session's `now` comes from (the hub's timings too).
+    static double now();
 
   private:
     void framesQueued() override;
@@ -39,7 +41,6 @@ class Session : public std::enable_shared_from_this<Session>, private SessionLin
     /// Reads and discards until the peer closes or an error; then closes the socket.
     void drain();
     void closeSocket();
-    static double now();
 
     ServerHub& hub_;
     asio::ip::tcp::socket socket_;

@@ -128,6 +128,11 @@ Status StatusHttp::listen(const std::string& address, std::uint16_t port) {
     return Ok{};
 }
 
+void StatusHttp::close() {
+    asio::error_code ignored;
+    acceptor_.close(ignored);
+}
+
 void StatusHttp::accept() {
     acceptor_.async_accept([this](const asio::error_code& ec, asio::ip::tcp::socket socket) {
         if (ec == asio::error::operation_aborted || !acceptor_.is_open())

@@ -32,6 +32,8 @@ class StatusHttp {
     /// the address and the OS error.
     Status listen(const std::string& address, std::uint16_t port);
     std::uint16_t port() const { return port_; }
+    /// Stops accepting and frees the port; exchanges in progress finish on their own.
+    void close();
 
   private:
     void accept();

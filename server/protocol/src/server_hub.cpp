@@ -112,11 +112,14 @@ std::size_t ServerHub::queuedBytes() const {
 }
 
 void ServerHub::submit(
-    const std::shared_ptr<SessionMachine>& session, std::uint32_t request_id, Accepted accepted) {
+    const std::shared_ptr<SessionMachine>& session,
+    std::uint32_t request_id,
+    Accepted accepted,
+    double received_at) {
     ++stats_.ops_accepted;
     if (journal_)
         journal_->append(journal::JournalRecord{accepted.seq, accepted.op, accepted.world_hash});
-    pending_.push_back(PendingOp{std::move(accepted), session, request_id});
+    pending_.push_back(PendingOp{std::move(accepted), session, request_id, received_at});
     scheduleCommit();
 }
 
@@ -290,6 +293,7 @@ void ServerHub::broadcast(std::vector<PendingOp>& ops) {
 }
 
 void ServerHub::acknowledge(const PendingOp& p) {
+    host_.observe(HubTiming::kBroadcast, host_.monotonicSeconds() - p.received_at);
     if (auto requester = p.requester.lock()) {
         pb::Envelope reply;
         reply.mutable_deform_reply()->set_request_id(p.request_id);

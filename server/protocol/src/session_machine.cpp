@@ -71,6 +71,7 @@ void SessionMachine::receive(std::span<const std::uint8_t> bytes, double now) {
 }
 
 void SessionMachine::received(std::size_t n, double now) {
+    hub_.counters().bytes_received += n;
     if (state_ != State::kAwaitHello && state_ != State::kLive)
         return; // closing: the Disconnect is being written; the write or the linger finishes
     now_ = std::max(now_, now);
@@ -199,6 +200,7 @@ void SessionMachine::onHello(const pb::Hello& hello) {
     state_ = State::kLive;
     setDeadline(kNever);
     ++hub_.counters().sessions_live;
+    join_started_ = hub_.clock();
 
     const std::uint64_t current = hub_.broadcastSeq();
     std::uint64_t hash_then = 0;
@@ -241,12 +243,19 @@ void SessionMachine::onHello(const pb::Hello& hello) {
         sendSnapshotAndTail();
 }
 
+void SessionMachine::countRefusal(int reason) {
+    ServerStats& s = hub_.counters();
+    ++s.ops_refused;
+    ++s.refused_by_reason
+          [static_cast<std::size_t>(reason) < kReasonSlots ? static_cast<std::size_t>(reason) : 0];
+}
+
 void SessionMachine::onDeform(const pb::DeformRequest& request, double now) {
     pb::Envelope reply;
     pb::DeformReply* r = reply.mutable_deform_reply();
     r->set_request_id(request.request_id());
     auto refuse = [&](pb::Reason reason, const std::string& message) {
-        ++hub_.counters().ops_refused;
+        countRefusal(reason);
         r->mutable_refused()->set_reason(reason);
         r->mutable_refused()->set_message(message);
         sendControl(reply);
@@ -259,6 +268,7 @@ void SessionMachine::onDeform(const pb::DeformRequest& request, double now) {
         return refuse(pb::REASON_RATE_LIMITED, "more deformations per second than the limit");
     if (hub_.failed() || hub_.shuttingDown())
         return refuse(pb::REASON_UNAVAILABLE, "the server is not accepting ops now");
+    const double apply_started = hub_.clock();
     Result<Accepted> accepted = makeError(ErrorCode::kBadFormat, "deform request without an op");
     if (request.has_metres()) {
         Result<OpRequest> op = wire::requestFromWire(request.metres());
@@ -268,12 +278,13 @@ void SessionMachine::onDeform(const pb::DeformRequest& request, double now) {
         accepted = op ? hub_.authority().apply(*op) : Result<Accepted>(op.error());
     }
     if (!accepted) {
-        ++hub_.counters().ops_refused;
         wire::refusalToWire(accepted.error(), *r->mutable_refused());
+        countRefusal(r->refused().reason());
         sendControl(reply);
         return;
     }
-    hub_.submit(shared_from_this(), request.request_id(), std::move(*accepted));
+    hub_.observe(HubTiming::kApply, hub_.clock() - apply_started);
+    hub_.submit(shared_from_this(), request.request_id(), std::move(*accepted), now);
 }
 
 void SessionMachine::onHeightQuery(const pb::HeightQuery& query, double now) {
@@ -454,6 +465,10 @@ void SessionMachine::deliverSnapshot(const wire::SnapshotFrames& snapshot) {
 }
 
 void SessionMachine::sendTail(std::uint64_t after_seq) {
+    if (join_started_ >= 0.0) { // the join's frames are queued now: its server-side time
+        hub_.observe(HubTiming::kJoin, hub_.clock() - join_started_);
+        join_started_ = -1.0;
+    }
     sent_through_ = after_seq;
     // note: inside a broadcast loop the snapshot may be ahead of broadcastSeq(); then there is
     // no tail and the loop's later ops are skipped by sendOp (seq <= sent_through_)

@@ -75,6 +75,8 @@ class Server : private HubHost {
     void stopAccepting() override;
     std::int64_t unixSeconds() const override;
     void log(const LogEvent& event) override;
+    double monotonicSeconds() const override;
+    void observe(HubTiming timing, double seconds) override;
 
     void accept();
     void scheduleAccept();

@@ -11,6 +11,13 @@
 
 namespace terrain::server {
 
+/// What the hub times with its host's clock and hands back, for the host's metrics.
+enum class HubTiming : std::uint8_t {
+    kApply,     ///< an accepted op's validation and apply to the authority's terrain
+    kBroadcast, ///< a deform request's arrival to its op's broadcast (commit included)
+    kJoin,      ///< a Hello to the join's frames queued (snapshot build waits included)
+};
+
 class HubHost {
   public:
     /// Runs elsewhere; returns what then runs on the hub's thread.
@@ -30,6 +37,11 @@ class HubHost {
     virtual std::int64_t unixSeconds() const = 0;
     /// The server's log: joins, closes, failures.
     virtual void log(const LogEvent& event) = 0;
+    /// Seconds on the monotonic clock the sessions' `now` comes from. A host without one (the
+    /// simulation) keeps 0, and its timings mean nothing.
+    virtual double monotonicSeconds() const { return 0.0; }
+    /// A duration the hub measured (HubTiming).
+    virtual void observe(HubTiming /*timing*/, double /*seconds*/) {}
 };
 
 } // namespace terrain::server

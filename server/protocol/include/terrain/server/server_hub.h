@@ -76,6 +76,9 @@ struct ServerConfig {
     std::function<void()> before_snapshot_build;
 };
 
+/// Slots for refusal reasons: every wire::pb::Reason value is below it.
+inline constexpr std::size_t kReasonSlots = 40;
+
 struct ServerStats {
     std::uint64_t sessions_accepted = 0;
     std::uint64_t sessions_live = 0;
@@ -91,6 +94,9 @@ struct ServerStats {
     std::uint64_t genesis_deltas_sent = 0; ///< genesis deltas queued to sessions
     std::uint64_t repairs_served = 0;
     std::uint64_t bytes_queued = 0; ///< all frames handed to sessions
+    std::uint64_t bytes_received = 0; ///< all bytes read from sessions
+    /// Deform requests refused, by wire::pb::Reason value (the sum is ops_refused).
+    std::array<std::uint64_t, kReasonSlots> refused_by_reason{};
 };
 
 class ServerHub {
@@ -160,7 +166,11 @@ class ServerHub {
     void submit(
         const std::shared_ptr<SessionMachine>& session,
         std::uint32_t request_id,
-        Accepted accepted);
+        Accepted accepted,
+        double received_at);
+    /// The host's monotonic clock, and where the hub's timings go (HubHost).
+    double clock() const { return host_.monotonicSeconds(); }
+    void observe(HubTiming timing, double seconds) { host_.observe(timing, seconds); }
     /// Synchronous: every accepted op durable and broadcast when it returns (or the hub
     /// failed). Joins, repairs, snapshot builds and shutdown need a state with no op that is not
     /// durable; waits for the group on the commit thread, then commits the rest on this one.
@@ -191,6 +201,7 @@ class ServerHub {
         Accepted accepted;
         std::weak_ptr<SessionMachine> requester;
         std::uint32_t request_id = 0;
+        double received_at = 0.0; ///< when the request was read (the host's clock)
     };
 
     /// Starts a commit of the pending ops once the handlers already ready have run (they join

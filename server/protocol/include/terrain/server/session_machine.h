@@ -114,6 +114,8 @@ class SessionMachine : public std::enable_shared_from_this<SessionMachine> {
     bool handleFrame(const wire::pb::Envelope& envelope, double now);
     void onHello(const wire::pb::Hello& hello);
     void onDeform(const wire::pb::DeformRequest& request, double now);
+    /// Counts a refused deform request under its reason (ServerStats::refused_by_reason).
+    void countRefusal(int reason);
     void onHeightQuery(const wire::pb::HeightQuery& query, double now);
     void onRayQuery(const wire::pb::RayQuery& query, double now);
     void onRepairRequest(const wire::pb::RepairRequest& request, double now);
@@ -134,6 +136,7 @@ class SessionMachine : public std::enable_shared_from_this<SessionMachine> {
     std::string peer_;
     State state_ = State::kAwaitHello;
     double now_ = 0.0; ///< the latest time a call brought
+    double join_started_ = -1.0; ///< the host's clock at Hello until the join is queued
     double deadline_ = kNever;
     wire::FrameReader reader_;
     OutboundQueue queue_;
