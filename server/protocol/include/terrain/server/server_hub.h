@@ -93,7 +93,7 @@ struct ServerStats {
     std::uint64_t snapshots_sent = 0;      ///< whole snapshots queued to sessions
     std::uint64_t genesis_deltas_sent = 0; ///< genesis deltas queued to sessions
     std::uint64_t repairs_served = 0;
-    std::uint64_t bytes_queued = 0; ///< all frames handed to sessions
+    std::uint64_t bytes_queued = 0;   ///< all frames handed to sessions
     std::uint64_t bytes_received = 0; ///< all bytes read from sessions
     /// Deform requests refused, by wire::pb::Reason value (the sum is ops_refused).
     std::array<std::uint64_t, kReasonSlots> refused_by_reason{};
