@@ -135,7 +135,7 @@ class SessionMachine : public std::enable_shared_from_this<SessionMachine> {
     std::uint64_t id_;
     std::string peer_;
     State state_ = State::kAwaitHello;
-    double now_ = 0.0; ///< the latest time a call brought
+    double now_ = 0.0;           ///< the latest time a call brought
     double join_started_ = -1.0; ///< the host's clock at Hello until the join is queued
     double deadline_ = kNever;
     wire::FrameReader reader_;
