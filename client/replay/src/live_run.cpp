@@ -70,6 +70,8 @@ Result<LiveRunResult> runLive(const LiveRunInput& input, const LiveRunOptions& o
     config.token_secret = randomSecret();
     config.deform_rate_per_second = 1e9; // the source's pace is not ours to police
     config.deform_burst = 1e9;
+    config.frame_rate_per_second = 1e9; // the feeder is ours: no flood limit
+    config.frame_burst = 1e9;
     config.batch_broadcasts = options.batch_broadcasts;
     config.max_sessions = options.clients + 1;
     config.outbound_budget_bytes = std::size_t{256} << 20; // flow control is the feeder's
