@@ -4,6 +4,7 @@
 // is unhealthy and resume after.
 
 #include "support/net_harness.h"
+#include "support/server_process.h"
 
 #include <terrain/server/agones_sdk.h>
 
@@ -130,20 +131,11 @@ TEST(AgonesSdk, ServerSaysReadyPingsHealthAndSaysShutdownAfterItsDrain) {
     fs::remove_all(dir);
     fs::create_directories(dir);
     const std::string log = (dir / "server.log").string();
-    const std::string port_file = (dir / "port").string();
-    const std::string sdk_port = std::to_string(sidecar.port());
-    const std::string secret(testSecret().begin(), testSecret().end());
-    const pid_t pid = fork();
-    if (pid == 0) {
-        std::freopen(log.c_str(), "w", stdout);
-        std::freopen(log.c_str(), "a", stderr);
-        execl(
-            TERRAIN_SERVER_BIN, TERRAIN_SERVER_BIN, "--token-secret", secret.c_str(), "serve",
-            "--bind", "127.0.0.1", "--port", "0", "--port-file", port_file.c_str(), "--no-journal",
-            "--size", "129", "--log-format", "json", "--agones", "--agones-sdk-port",
-            sdk_port.c_str(), "--agones-health-ms", "100", static_cast<char*>(nullptr));
-        _exit(127);
-    }
+    const pid_t pid = spawnServerProcess(
+        {"--port-file", (dir / "port").string(), "--no-journal", "--size", "129", "--log-format",
+         "json", "--agones", "--agones-sdk-port", std::to_string(sidecar.port()),
+         "--agones-health-ms", "100"},
+        log);
     ASSERT_GT(pid, 0);
     const bool pinged = waitFor([&] { return sidecar.count("/health") >= 3; }, 20.0);
     ::kill(pid, SIGTERM);

@@ -5,6 +5,7 @@
 
 #include "support/journal_files.h"
 #include "support/net_harness.h"
+#include "support/server_process.h"
 
 #include <terrain/journal/journal.h>
 #include <terrain/journal/record_codec.h>
@@ -35,21 +36,10 @@ struct ServerProcess {
 ServerProcess spawnServer(const fs::path& dir, const std::string& tag) {
     const fs::path port_file = dir / ("port-" + tag);
     fs::remove(port_file);
-    const std::string secret(testSecret().begin(), testSecret().end());
-    const std::string log = (dir / ("server-" + tag + ".log")).string();
-    const std::string data = (dir / "data").string();
-    const std::string port_path = port_file.string();
-    const pid_t pid = fork();
-    if (pid == 0) {
-        std::freopen(log.c_str(), "w", stdout);
-        std::freopen(log.c_str(), "a", stderr);
-        execl(
-            TERRAIN_SERVER_BIN, TERRAIN_SERVER_BIN, "--token-secret", secret.c_str(), "serve",
-            "--bind", "127.0.0.1", "--port", "0", "--port-file", port_path.c_str(), "--data-dir",
-            data.c_str(), "--size", "129", "--durability", "fsync", "--deform-rate", "100000",
-            "--snapshot-every", "150", static_cast<char*>(nullptr));
-        _exit(127);
-    }
+    const pid_t pid = spawnServerProcess(
+        {"--port-file", port_file.string(), "--data-dir", (dir / "data").string(), "--size", "129",
+         "--durability", "fsync", "--deform-rate", "100000", "--snapshot-every", "150"},
+        (dir / ("server-" + tag + ".log")).string());
     ServerProcess p;
     p.pid = pid;
     for (int i = 0; i < 1000 && p.port == 0; ++i) {
