@@ -773,6 +773,26 @@ TEST(Session, HealthAnswersWhenEveryPlayerSlotIsTaken) {
     expectHealthReply(srv.port());
 }
 
+// A client refused for a full server backs off: its delay doubles with each refusal (0.05 s,
+// 0.1, 0.2, ...), so in 2 s it tries about 6 times, not 40; once a slot frees it joins.
+TEST(Session, AClientRefusedForAFullServerBacksOff) {
+    server::ServerConfig config = fastConfig();
+    config.max_sessions = 1;
+    TestServer srv(smallMap(129), config);
+    asio::io_context io;
+    auto first = std::make_unique<TestClient>(io, srv.port(), token(1, Role::kViewer));
+    ASSERT_TRUE(runUntil(io, [&] { return first->replica.ready(); }));
+    TestClient second(io, srv.port(), token(2, Role::kViewer)); // reconnects every 0.05 s
+    io.run_for(std::chrono::seconds(2));
+    const std::uint64_t tries = second.connection->stats().connects;
+    EXPECT_GE(tries, 3u);
+    EXPECT_LE(tries, 8u) << "no backoff: a refused client retried " << tries << " times in 2 s";
+    ASSERT_FALSE(second.disconnects.empty());
+    EXPECT_NE(second.disconnects.back().find("REASON_SERVER_FULL"), std::string::npos);
+    first.reset(); // a slot frees: the next try joins
+    ASSERT_TRUE(runUntil(io, [&] { return second.replica.ready(); }, 10.0));
+}
+
 // Connections that never say Hello have their own limits, in all and per address: a few idle
 // sockets (reopened as each times out) cannot keep players out.
 TEST(Session, ConnectionsThatNeverSayHelloTakeNoPlayersPlace) {

@@ -1,6 +1,8 @@
 #include <terrain/client/connection.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 
 namespace terrain::client {
 
@@ -219,6 +221,7 @@ void Connection::lost(const std::string& why, bool final_reason) {
         return;
     ++machine_.counters().disconnects;
     ++generation_;
+    const bool was_live = machine_.phase() == ClientMachine::Phase::kLive;
     machine_.linkDown();
     last_disconnect_ = why;
     asio::error_code ignored;
@@ -231,8 +234,12 @@ void Connection::lost(const std::string& why, bool final_reason) {
         return;
     }
     state_ = Link::kWaiting;
+    failed_attempts_ = was_live ? 0 : std::min(failed_attempts_ + 1, 30);
+    const double delay = std::min(
+        std::max(config_.reconnect_max_delay_seconds, config_.reconnect_delay_seconds),
+        config_.reconnect_delay_seconds * std::ldexp(1.0, failed_attempts_));
     timer_.expires_after(std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-        std::chrono::duration<double>(config_.reconnect_delay_seconds)));
+        std::chrono::duration<double>(delay)));
     timer_.async_wait([self = shared_from_this()](const asio::error_code& ec) {
         if (!ec && self->state_ == Link::kWaiting)
             self->connect();

@@ -90,6 +90,7 @@ class Connection : public std::enable_shared_from_this<Connection> {
     bool write_busy_ = false;
     std::uint64_t generation_ = 0; // bumps on each new socket; stale handlers ignore themselves
     std::string last_disconnect_;
+    int failed_attempts_ = 0; // attempts in a row that did not reach live (reconnect backoff)
 };
 
 } // namespace terrain::client

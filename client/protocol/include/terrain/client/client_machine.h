@@ -32,6 +32,10 @@ struct ConnectionConfig {
     std::size_t max_snapshot_bytes = std::size_t{2} << 30;
     bool reconnect = true;
     double reconnect_delay_seconds = 0.2;
+    /// Each attempt in a row that does not reach live (a full or draining server, one that is
+    /// down) doubles the delay, up to this; a join that goes live resets it. A refused client
+    /// does not hammer a busy server.
+    double reconnect_max_delay_seconds = 5.0;
     /// Name the genesis the replica holds in Hello and snapshot requests, so that joins and
     /// resyncs come as genesis deltas (only the tiles that differ from it) when the server's
     /// genesis is the same. Off: always the whole snapshot.
