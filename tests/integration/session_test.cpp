@@ -790,7 +790,8 @@ TEST(Session, AClientRefusedForAFullServerBacksOff) {
     ASSERT_FALSE(second.disconnects.empty());
     EXPECT_NE(second.disconnects.back().find("REASON_SERVER_FULL"), std::string::npos);
     first.reset(); // a slot frees: the next try joins
-    ASSERT_TRUE(runUntil(io, [&] { return second.replica.ready(); }, 10.0));
+    ASSERT_TRUE(runUntil(
+        io, [&] { return second.replica.ready(); }, 10.0));
 }
 
 // Connections that never say Hello have their own limits, in all and per address: a few idle
