@@ -72,7 +72,7 @@ struct LiveRunResult {
     std::uint64_t ops_accepted = 0;   ///< of those, ops the server accepted
     std::uint64_t ops_renumbered = 0; ///< accepted at another seq than the caller expected
     std::map<std::string, std::uint64_t> refusals; ///< by reason ("REASON_...")
-    std::string first_refusal;                     ///< "op N: reason" of the first
+    std::string first_refusal;                     ///< "request N: reason" of the first
     double seconds = 0.0;
     bool timed_out = false;
     std::vector<ClientTally> clients;
@@ -92,7 +92,8 @@ struct LiveRunInput {
     std::function<std::optional<FeedRequest>(const client::Replica& feeder)> next;
     /// The hash expected after op `seq`, when known (a recorded journal's).
     std::function<std::optional<std::uint64_t>(std::uint64_t seq)> expected_hash;
-    /// The op the caller expects at `seq` (for the divergence record; else the feeder's).
+    /// The op at `seq`, for the divergence record (a journal's; without it the record's op is
+    /// left empty).
     std::function<std::optional<DeformOp>(std::uint64_t seq)> expected_op;
     /// Stop feeding at the first refusal or renumbering (a journal replay must be exact).
     bool stop_on_refusal = false;
