@@ -7,7 +7,6 @@
 #include <chrono>
 #include <ctime>
 #include <memory>
-#include <random>
 
 namespace terrain::replay {
 namespace {
@@ -25,14 +24,6 @@ class QuietLog : public server::LogSink {
   public:
     void write(const server::LogEvent&) override {}
 };
-
-std::vector<std::uint8_t> randomSecret() {
-    std::random_device device;
-    std::vector<std::uint8_t> secret(32);
-    for (std::uint8_t& b : secret)
-        b = static_cast<std::uint8_t>(device());
-    return secret;
-}
 
 /// "REASON_RATE_LIMITED: ..." -> "REASON_RATE_LIMITED"
 std::string reasonName(const std::string& reason) {
@@ -67,7 +58,7 @@ Result<LiveRunResult> runLive(const LiveRunInput& input, const LiveRunOptions& o
     server::ServerConfig& config = server_options.config;
     config.bind_address = "127.0.0.1";
     config.port = 0;
-    config.token_secret = randomSecret();
+    config.token_secret = server::randomTokenSecret();
     config.deform_rate_per_second = 1e9; // the source's pace is not ours to police
     config.deform_burst = 1e9;
     config.frame_rate_per_second = 1e9; // the feeder is ours: no flood limit

@@ -5,21 +5,9 @@
 #include <terrain/viewer/in_process_server.h>
 
 #include <chrono>
-#include <random>
 #include <vector>
 
 namespace terrain::viewer {
-
-namespace {
-std::vector<std::uint8_t> randomSecret() {
-    // nobody else ever needs this secret: it only has to be unguessable for this run
-    std::random_device device;
-    std::vector<std::uint8_t> secret(32);
-    for (std::uint8_t& b : secret)
-        b = static_cast<std::uint8_t>(device() & 0xffu);
-    return secret;
-}
-} // namespace
 
 struct InProcessServer::Impl {
     std::unique_ptr<server::ServerThread> thread;
@@ -31,7 +19,7 @@ Result<std::unique_ptr<InProcessServer>> InProcessServer::start(Terrain terrain)
     server::ServerThreadOptions options;
     options.config.bind_address = "127.0.0.1";
     options.config.port = 0;
-    options.config.token_secret = randomSecret();
+    options.config.token_secret = server::randomTokenSecret();
     const std::vector<std::uint8_t> secret = options.config.token_secret;
     auto thread = server::ServerThread::start(std::move(terrain), std::move(options));
     if (!thread)

@@ -2,9 +2,18 @@
 
 #include <asio.hpp>
 #include <chrono>
+#include <random>
 #include <thread>
 
 namespace terrain::server {
+
+std::vector<std::uint8_t> randomTokenSecret() {
+    std::random_device device;
+    std::vector<std::uint8_t> secret(32);
+    for (std::uint8_t& b : secret)
+        b = static_cast<std::uint8_t>(device() & 0xffu);
+    return secret;
+}
 
 struct ServerThread::Impl {
     // the io_context first: it outlives the server whose handlers it holds

@@ -15,6 +15,7 @@
 #include <functional>
 #include <future>
 #include <memory>
+#include <vector>
 
 namespace terrain::server {
 
@@ -28,6 +29,10 @@ struct ServerThreadOptions {
     /// Where the server logs; null: text lines on stdout (Server's default).
     std::shared_ptr<LogSink> log;
 };
+
+/// A token secret for an in-process server that no outside client joins (the viewer's, a
+/// replay's): 32 bytes from the OS's entropy, unguessable for this run only.
+std::vector<std::uint8_t> randomTokenSecret();
 
 class ServerThread {
   public:
