@@ -93,16 +93,17 @@ struct FlightParams {
     double speed_mps = 250.0;
     /// start as a fraction of the map's extent: the 600 frames climb the Presidential Range's
     /// south-western ridge (ground 1200-1630 m) and end about 1.5 km short of Mt Washington (col
-    /// ~836, row ~875 of the grid), the roughest part of the map
+    /// ~836, row ~875 of the file, north first), the roughest part of the map. y points north
+    /// (the importer keeps the true shape): the flight heads south-east, turning right
     double start_fx = 0.67;
-    double start_fy = 0.69;
-    double heading0_deg = 35.0; ///< direction of travel at frame 0, from +x towards +y
+    double start_fy = 0.31;
+    double heading0_deg = -35.0; ///< direction of travel at frame 0, from +x (east) to +y (north)
     /// constant turn: a circle of radius speed / rate (about 2.4 km), so any --frames stays on
     /// the map
-    double turn_deg_per_s = 6.0;
+    double turn_deg_per_s = -6.0;
     /// the camera looks around the direction of travel: yaw changes at a varying rate, which
     /// exercises the tessellator's frustum re-check (cull sweep every 4 degrees of turn)
-    double look_wobble_deg = 8.0;
+    double look_wobble_deg = -8.0;
     double look_wobble_period_s = 4.0;
     double pitch_rad = -0.25;
     double altitude_m = 150.0; ///< above the smoothed ground under the path
@@ -193,7 +194,7 @@ Json flightJson(const FlightParams& p, const Flight& f, int frames) {
     j["end_m"] = {f.cameras.back().eye.x, f.cameras.back().eye.y, f.cameras.back().eye.z};
     j["heading0_deg"] = p.heading0_deg;
     j["turn_deg_per_s"] = p.turn_deg_per_s;
-    j["turn_radius_m"] = p.speed_mps / (p.turn_deg_per_s * kDeg);
+    j["turn_radius_m"] = p.speed_mps / (std::abs(p.turn_deg_per_s) * kDeg);
     j["look_wobble_deg"] = p.look_wobble_deg;
     j["look_wobble_period_s"] = p.look_wobble_period_s;
     j["pitch_rad"] = p.pitch_rad;

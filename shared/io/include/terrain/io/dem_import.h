@@ -3,6 +3,15 @@
 // Import of height maps from files: the raw + JSON DEM format of the reference datasets
 // (int16 or float32, little-endian, row-major, row 0 north) and 16-bit grayscale PNG.
 // Every byte and field is untrusted: errors name the rule broken, nothing asserts.
+//
+// True shape: the world frame is x east, y north, z up (right-handed), so the source's row 0
+// (north) becomes the terrain's last row. The core has square cells (one spacing: diamonds,
+// craters and the protocol assume it), so a grid whose x and y spacings differ (SRTM's 3" cells
+// are 66 x 93 m at 44 N) is resampled along its coarser axis to the finer spacing: no source
+// sample is dropped, the extent is kept within half a cell, and the filter is linear along that
+// axis (monotone: it never overshoots a ridge or a pit). Each resampled value lies on the
+// source's piecewise-linear profile; DemInfo::resample_max_error_metres measures how far the
+// imported surface is from the source samples (a peak between two new rows is cut).
 
 #include <terrain/result.h>
 #include <terrain/terrain.h>
@@ -17,9 +26,9 @@
 namespace terrain::io {
 
 struct DemImportOptions {
-    /// Grid spacing in metres. When unset: the sidecar's horizontal.spacing_m.x, else
-    /// horizontal.approx_spacing_m.x; a DEM with neither needs this option.
-    /// note: cells are square; for grids with different x and y spacing (SRTM) x is used.
+    /// Grid spacing in metres, both axes (no resampling). When unset: the sidecar's
+    /// horizontal.spacing_m, else horizontal.approx_spacing_m (x, and y if given: a y that
+    /// differs resamples); a DEM with neither needs this option.
     std::optional<double> spacing_metres;
     /// Metres per stored unit. When unset: the sidecar's vertical_scale, or 1 if it is null.
     std::optional<double> vertical_scale;
@@ -34,11 +43,21 @@ struct DemImportOptions {
 
 struct DemInfo {
     std::string name;
-    std::int32_t width = 0;
+    std::int32_t width = 0; ///< of the terrain (after resampling)
     std::int32_t height = 0;
+    std::int32_t source_width = 0; ///< of the file
+    std::int32_t source_height = 0;
     std::string sample_type;
-    double spacing_metres = 0.0;
+    double spacing_metres = 0.0;   ///< the terrain's (square) cells
+    double source_spacing_x = 0.0; ///< the file's, metres
+    double source_spacing_y = 0.0;
     std::string spacing_source; ///< where the spacing came from
+    /// "" when the grid was taken as is; else what was resampled and how.
+    std::string resampling;
+    /// Largest |imported surface - source sample| over every source sample (metres, quantisation
+    /// included); 0 when not resampled (then only quantisation, at most half a quantum).
+    double resample_max_error_metres = 0.0;
+    double resample_mean_error_metres = 0.0; ///< the same, averaged over the source samples
     double vertical_scale = 1.0;
     double min_metres = 0.0;
     double max_metres = 0.0;
