@@ -1,0 +1,126 @@
+#!/usr/bin/env bash
+# Speed against accuracy, regenerated: runs lod_bench (every LOD method on the default map and
+# every DEM, six flights, tau 0.25-8 px, with and without a binding triangle cap) and draws its
+# charts with gnuplot into docs/lod/ (the ones BENCHMARKS.md shows; the CSV and JSON stay in
+# out/lod/). Build first: cmake --preset release && cmake --build --preset release.
+#
+#   bash tests/bench/lod_report.sh            # the full report (about 20 minutes on 2 cores)
+#   bash tests/bench/lod_report.sh --smoke D  # a tiny map and few frames into D, then checks
+#                                             # that every file is there and not empty
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+
+bench=${LOD_BENCH:-build/release/tests/lod_bench}
+smoke=""
+out=out/lod
+charts=docs/lod
+if [ "${1:-}" = "--smoke" ]; then
+    smoke=1
+    out=${2:?--smoke needs an output directory}
+    charts=$out
+fi
+[ -x "$bench" ] || { echo "lod_report: $bench is not built (cmake --build --preset release)"; exit 2; }
+command -v gnuplot > /dev/null || { echo "lod_report: gnuplot is missing (apt-get install gnuplot-nox)"; exit 2; }
+mkdir -p "$out" "$charts"
+
+if [ -n "$smoke" ]; then
+    "$bench" --maps small --frames 24 --measures 3 --pre-shots 40 --width 320 --height 180 \
+        --taus 1,4 --caps 0,3000 --out-dir "$out" > "$out/lod_bench.log"
+    scenarios="small:cruise small:low small:whip small:battle"
+    series="small:battle small:teleport"
+else
+    dems=$(ls ../shared/data/dem 2> /dev/null | grep -v README | tr '\n' ',' || true)
+    "$bench" --maps "default,${dems%,}" --frames 240 --measures 8 --pre-shots 1000 \
+        --taus 0.25,0.5,1,2,4,8 --caps 0,150000 --out-dir "$out" | tee "$out/lod_bench.log"
+    scenarios="srtm_n44w072:cruise srtm_n44w072:low srtm_n44w072:whip default:battle"
+    series="default:battle srtm_n44w072:teleport"
+fi
+
+methods="split_merge split_only full_mesh chunked"
+series_dir=$out/series
+rm -rf "$series_dir"
+mkdir -p "$series_dir"
+# one file per scenario and method (runs without a cap), so gnuplot draws each as one line
+for s in $scenarios $series; do
+    map=${s%%:*}
+    flight=${s##*:}
+    for m in $methods; do
+        awk -F, -v map="$map" -v flight="$flight" -v m="$m" \
+            '$1 == map && $2 == flight && $3 == m && $5 == 0' "$out/runs.csv" \
+            > "$series_dir/runs_${map}_${flight}_$m.csv"
+        awk -F, -v map="$map" -v flight="$flight" -v m="$m" \
+            '$1 == map && $2 == flight && $3 == m && $4 == 1 && $5 == 0' "$out/frames.csv" \
+            > "$series_dir/frames_${map}_${flight}_$m.csv"
+    done
+done
+
+# one facet per scenario, one curve per method
+facets() { # $1: x column, $2: y column, $3: title, $4: x label, $5: y label, $6: extra settings
+    echo "set multiplot layout 2,2 title '$3'"
+    for s in $scenarios; do
+        local map=${s%%:*} flight=${s##*:} plots=""
+        echo "set title '$map, $flight'; set xlabel '$4'; set ylabel '$5'; $6"
+        for m in $methods; do
+            plots+="'$series_dir/runs_${map}_${flight}_$m.csv' using (floor0(\$$1)):(floor0(\$$2)) title '$m', "
+        done
+        echo "plot ${plots%, }"
+    done
+    echo "unset multiplot"
+}
+
+{
+    echo "set datafile separator ','"
+    echo "set terminal pngcairo size 1400,1000 font 'sans,10' noenhanced"
+    echo "set key top right; set grid; set style data linespoints"
+    # log axes: an exact zero (the full mesh's error) is drawn at 0.001
+    echo "floor0(v) = v > 0.001 ? v : 0.001"
+    echo "set output '$charts/cpu_vs_error.png'"
+    # CPU per frame (p50) against measured screen error (p99): the Pareto view
+    facets 15 6 "CPU per frame against measured screen error (p99 of triangles), one point per tau (0 drawn at 0.001)" \
+        "screen error p99 (px)" "CPU per frame, median (ms)" "set logscale y; set logscale x"
+    echo "set output '$charts/triangles_vs_tau.png'"
+    facets 4 9 "Triangles drawn (median) against tau" "tau (px)" "triangles" \
+        "set logscale x; set logscale y"
+    echo "set output '$charts/error_vs_triangles.png'"
+    facets 9 14 "Measured screen error (max) against triangles drawn (0 drawn at 0.001)" \
+        "triangles (median)" "screen error max (px)" "set logscale x; set logscale y"
+    echo "set output '$charts/upload_vs_tau.png'"
+    facets 4 11 "Bytes uploaded per frame (mean) against tau" "tau (px)" "bytes per frame" \
+        "set logscale x; set logscale y"
+    # per-frame CPU of one flight at tau 1, events marked
+    echo "set output '$charts/frame_series.png'"
+    echo "set multiplot layout 2,1 title 'CPU per frame at tau = 1 px (teleports marked in grey; in the battle a shot lands every frame)'"
+    echo "unset logscale x; set logscale y"
+    for s in $series; do
+        map=${s%%:*}
+        flight=${s##*:}
+        plots=""
+        for m in $methods; do
+            plots+="'$series_dir/frames_${map}_${flight}_$m.csv' using 6:(floor0(\$7)) with lines title '$m', "
+        done
+        plots+="'$series_dir/frames_${map}_${flight}_split_merge.csv' using (strcol(14) eq 'teleport' ? \$6 : NaN):(1e4) with impulses lc rgb '#aaaaaa' title 'teleport'"
+        echo "set title '$map, $flight'; set xlabel 'frame'; set ylabel 'ms (0 drawn at 0.001)'"
+        echo "plot $plots"
+    done
+    echo "unset multiplot"
+} > "$out/charts.gp"
+gnuplot "$out/charts.gp"
+
+if [ -n "$smoke" ]; then
+    for f in runs.csv frames.csv runs.json; do
+        [ -s "$out/$f" ] || { echo "lod_report: $out/$f is missing or empty"; exit 1; }
+    done
+    for f in cpu_vs_error triangles_vs_tau error_vs_triangles upload_vs_tau frame_series; do
+        [ "$(stat -c %s "$charts/$f.png")" -gt 10000 ] || {
+            echo "lod_report: $charts/$f.png is missing or blank"
+            exit 1
+        }
+    done
+    # every method and flight ran, and each was measured
+    for m in $methods; do
+        grep -q ",$m," "$out/runs.csv" || { echo "lod_report: no run of $m"; exit 1; }
+    done
+    echo "lod_report: smoke run complete in $out"
+else
+    echo "lod_report: charts in $charts/, data in $out/"
+fi
