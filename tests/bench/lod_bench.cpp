@@ -11,10 +11,14 @@
 
 #include <terrain/battle.h>
 #include <terrain/io/dem_import.h>
+#include <terrain/io/png_image.h>
 #include <terrain/lodlab/flights.h>
+#include <terrain/lodlab/image_measure.h>
 #include <terrain/lodlab/lod_method.h>
 #include <terrain/lodlab/screen_measure.h>
 #include <terrain/procedural_map.h>
+#include <terrain/render/mesh_renderer.h>
+#include <terrain/render/offscreen.h>
 #include <terrain/terrain.h>
 
 #include <CLI/CLI.hpp>
@@ -106,6 +110,13 @@ struct RunResult {
     double error_max = 0.0;  ///< over measured frames
     double error_p99 = 0.0;  ///< largest per-frame p99
     double error_mean = 0.0; ///< mean of the frames' means
+    double image_diff_mean = 0.0; ///< share of pixels off the full-resolution render
+    double image_diff_max = 0.0;
+    double psnr_mean = 0.0;
+    double psnr_min = 0.0;
+    double popping_mean = 0.0; ///< share of pixels that popped
+    double popping_max = 0.0;
+    int imaged_frames = 0;
     int measured_frames = 0;
     int frames_over_tau = 0; ///< measured frames whose max exceeds tau
     int frames_capped = 0;   ///< frames over the cap or the work budget
@@ -131,6 +142,9 @@ int main(int argc, char** argv) {
     int height = 720;
     std::string out_dir = "out/lod";
     std::string dem_dir = TERRAIN_DEM_DIR;
+    bool images = true;
+    int threshold = 16;
+    bool save_frames = false;
     app.add_option("--maps", maps, "default, small, or DEM names under --dem-dir (comma list)");
     app.add_option("--flights", flights, "cruise, low, hover, whip, teleport, battle");
     app.add_option("--methods", methods, "split_merge, split_only, full_mesh, chunked");
@@ -145,6 +159,15 @@ int main(int argc, char** argv) {
     app.add_option("--height", height)->check(CLI::Range(16, 8192));
     app.add_option("--out-dir", out_dir);
     app.add_option("--dem-dir", dem_dir);
+    app.add_flag(
+        "!--no-images", images,
+        "skip the image measures (OSMesa renders of each measured frame, its predecessor and the "
+        "full-resolution mesh)");
+    app.add_option("--image-threshold", threshold, "a pixel differs beyond this channel step")
+        ->check(CLI::Range(0, 255));
+    app.add_flag(
+        "--save-frames", save_frames,
+        "write the middle measured frame of every run at tau 1 (and the reference) as PNGs");
     CLI11_PARSE(app, argc, argv);
 
     std::vector<lodlab::FlightKind> flight_list;
@@ -190,11 +213,12 @@ int main(int argc, char** argv) {
         return 2;
     }
     frames_csv << "map,flight,method,tau,cap,frame,cpu_ms,triangles,upload_bytes,bound_px,"
-                  "error_max_px,error_p99_px,open_edges,event\n";
+                  "error_max_px,error_p99_px,open_edges,event,image_diff,psnr_db,popping\n";
     runs_csv << "map,flight,method,tau,cap,cpu_p50_ms,cpu_p99_ms,cpu_max_ms,triangles_p50,"
                 "triangles_max,upload_mean_bytes,upload_p99_bytes,bound_max_px,error_max_px,"
                 "error_p99_px,error_mean_px,measured_frames,frames_over_tau,frames_capped,"
-                "rebuilds,open_edges,memory_bytes,build_ms\n";
+                "rebuilds,open_edges,memory_bytes,build_ms,image_diff_mean,image_diff_max,"
+                "psnr_mean_db,psnr_min_db,popping_mean,popping_max\n";
 
     Json report = Json::object();
     report["benchmark"] = "lod_bench";
@@ -204,6 +228,22 @@ int main(int argc, char** argv) {
     report["viewport"] = {width, height};
     Json runs = Json::array();
     bool cracked = false;
+    std::unique_ptr<render::GlContext> gl;
+    if (images) {
+        auto context =
+            render::createOffscreenContext(render::OffscreenBackend::kOsmesa, width, height);
+        if (!context) {
+            std::fprintf(
+                stderr, "lod_bench: no image measures: %s\n", context.error().message.c_str());
+            images = false;
+        } else {
+            gl = std::move(*context);
+            report["renderer"] = gl->describe();
+        }
+    }
+    report["image_threshold"] = threshold;
+    if (save_frames)
+        fs::create_directories(fs::path(out_dir) / "frames", ec);
 
     for (const std::string& map_name : splitList(maps)) {
         std::string error;
@@ -213,6 +253,15 @@ int main(int argc, char** argv) {
             return 2;
         }
         std::printf("map %s: %s\n", map->name.c_str(), map->note.c_str());
+        std::unique_ptr<render::MeshRenderer> painter;
+        if (images) {
+            auto made = render::MeshRenderer::create(*gl, *map->terrain);
+            if (!made) {
+                std::fprintf(stderr, "lod_bench: %s\n", made.error().message.c_str());
+                return 2;
+            }
+            painter = std::move(*made);
+        }
         for (lodlab::FlightKind kind : flight_list) {
             // the battle's world: pre_shots craters at the zone, then more during the flight
             // (the same seed for every method, so each sees the same world)
@@ -241,6 +290,9 @@ int main(int argc, char** argv) {
             for (int m = 0; m < measures; ++m)
                 measured_at.push_back(static_cast<int>(
                     (static_cast<std::int64_t>(m) * frames + frames / 2) / measures));
+            // the full-resolution renders of the measured frames and their predecessors, made
+            // during the flight's first run (every run sees the same world)
+            std::map<int, io::RgbImage> reference;
             for (lodlab::Method method : method_list)
                 for (double tau : tau_list)
                     for (std::int64_t cap : cap_list) {
@@ -257,6 +309,12 @@ int main(int argc, char** argv) {
                         const auto build = bench::Clock::now();
                         auto lod = lodlab::makeMethod(method, world, mo);
                         r.build_ms = bench::msSince(build);
+                        std::unique_ptr<lodlab::LodMethod> truth;
+                        if (images && reference.empty())
+                            truth = lodlab::makeMethod(lodlab::Method::kFullMesh, world, mo);
+                        io::RgbImage previous;
+                        double psnr_sum = 0.0;
+                        r.psnr_min = lodlab::kPsnrIdentical;
                         std::vector<double> cpu;
                         std::vector<double> tris;
                         std::vector<double> upload;
@@ -283,15 +341,65 @@ int main(int argc, char** argv) {
                                 lod->terrainChanged(changed, false);
                             const lodlab::MethodFrame f = lod->update(ff.camera);
                             const double ms = bench::msSince(t0);
+                            const bool measure =
+                                std::find(measured_at.begin(), measured_at.end(), i) !=
+                                measured_at.end();
+                            const bool before_measure =
+                                std::find(measured_at.begin(), measured_at.end(), i + 1) !=
+                                measured_at.end();
+                            if (truth) {
+                                if (!changed.empty())
+                                    truth->terrainChanged(changed, false);
+                                if (measure || before_measure) {
+                                    truth->update(ff.camera);
+                                    truth->visibleTriangles(drawn);
+                                    reference[i] = painter->render(drawn, world, ff.camera);
+                                }
+                            }
+                            lodlab::ImageError image;
+                            double popped = -1.0;
+                            if (images && (measure || before_measure)) {
+                                lod->visibleTriangles(drawn);
+                                io::RgbImage shot = painter->render(drawn, world, ff.camera);
+                                if (measure) {
+                                    image = lodlab::compareImages(shot, reference[i], threshold);
+                                    if (!previous.rgb.empty() && reference.count(i - 1) != 0)
+                                        popped = lodlab::poppingShare(
+                                            previous, shot, reference[i - 1], reference[i],
+                                            threshold);
+                                    ++r.imaged_frames;
+                                    r.image_diff_mean += image.differing_share;
+                                    r.image_diff_max =
+                                        std::max(r.image_diff_max, image.differing_share);
+                                    psnr_sum += image.psnr_db;
+                                    r.psnr_min = std::min(r.psnr_min, image.psnr_db);
+                                    if (popped >= 0.0) {
+                                        r.popping_mean += popped;
+                                        r.popping_max = std::max(r.popping_max, popped);
+                                    }
+                                    if (save_frames && tau == 1.0 && cap == cap_list.front() &&
+                                        i == measured_at[measured_at.size() / 2]) {
+                                        const std::string stem =
+                                            map->name + "_" + lodlab::toString(kind) + "_";
+                                        (void)io::writeRgbPng(
+                                            fs::path(out_dir) / "frames" /
+                                                (stem + lodlab::toString(method) + ".png"),
+                                            shot);
+                                        (void)io::writeRgbPng(
+                                            fs::path(out_dir) / "frames" / (stem + "reference.png"),
+                                            reference[i]);
+                                    }
+                                }
+                                previous = std::move(shot);
+                            } else {
+                                previous.rgb.clear();
+                            }
                             cpu.push_back(ms);
                             tris.push_back(static_cast<double>(f.triangles));
                             upload.push_back(static_cast<double>(f.upload_bytes));
                             r.bound_max = std::max(r.bound_max, f.error_bound_pixels);
                             r.frames_capped += f.over_budget ? 1 : 0;
                             r.rebuilds += f.rebuilt ? 1 : 0;
-                            const bool measure =
-                                std::find(measured_at.begin(), measured_at.end(), i) !=
-                                measured_at.end();
                             lodlab::MeshError e;
                             std::int64_t open = -1;
                             if (measure) {
@@ -316,17 +424,30 @@ int main(int argc, char** argv) {
                             char line[512];
                             std::snprintf(
                                 line, sizeof line,
-                                "%s,%s,%s,%g,%lld,%d,%.4f,%lld,%lld,%.4f,%s,%s,%s,%s\n",
+                                "%s,%s,%s,%g,%lld,%d,%.4f,%lld,%lld,%.4f,%s,%s,%s,%s,%s,%s,%s\n",
                                 map->name.c_str(), lodlab::toString(kind), lodlab::toString(method),
                                 tau, static_cast<long long>(cap), i, ms,
                                 static_cast<long long>(f.triangles),
                                 static_cast<long long>(f.upload_bytes), f.error_bound_pixels,
                                 measure ? std::to_string(e.max_pixels).c_str() : "",
                                 measure ? std::to_string(e.p99_pixels).c_str() : "",
-                                measure ? std::to_string(open).c_str() : "", event);
+                                measure ? std::to_string(open).c_str() : "", event,
+                                measure && images ? std::to_string(image.differing_share).c_str()
+                                                  : "",
+                                measure && images ? std::to_string(image.psnr_db).c_str() : "",
+                                popped >= 0.0 ? std::to_string(popped).c_str() : "");
                             frames_csv << line;
                         }
                         r.error_mean = r.measured_frames > 0 ? mean_sum / r.measured_frames : 0;
+                        if (r.imaged_frames > 0) {
+                            r.image_diff_mean /= r.imaged_frames;
+                            r.psnr_mean = psnr_sum / r.imaged_frames;
+                            // the first measured frame may have no predecessor rendered
+                            const int popped_frames =
+                                r.imaged_frames - (measured_at.front() == 0 ? 1 : 0);
+                            if (popped_frames > 0)
+                                r.popping_mean /= popped_frames;
+                        }
                         r.memory_bytes = lod->memoryBytes();
                         r.cpu_ms = bench::summarize(cpu);
                         r.triangles = bench::summarize(tris);
@@ -337,13 +458,15 @@ int main(int argc, char** argv) {
                         std::snprintf(
                             line, sizeof line,
                             "%s,%s,%s,%g,%lld,%.4f,%.4f,%.4f,%.0f,%.0f,%.0f,%.0f,%.4f,%.4f,%.4f,"
-                            "%.4f,%d,%d,%d,%d,%lld,%zu,%.1f\n",
+                            "%.4f,%d,%d,%d,%d,%lld,%zu,%.1f,%.5f,%.5f,%.2f,%.2f,%.5f,%.5f\n",
                             r.key.map.c_str(), r.key.flight.c_str(), lodlab::toString(method), tau,
                             static_cast<long long>(cap), r.cpu_ms.p50, r.cpu_ms.p99, r.cpu_ms.max,
                             r.triangles.p50, r.triangles.max, r.upload_bytes.mean,
                             r.upload_bytes.p99, r.bound_max, r.error_max, r.error_p99, r.error_mean,
                             r.measured_frames, r.frames_over_tau, r.frames_capped, r.rebuilds,
-                            static_cast<long long>(r.open_edges), r.memory_bytes, r.build_ms);
+                            static_cast<long long>(r.open_edges), r.memory_bytes, r.build_ms,
+                            r.image_diff_mean, r.image_diff_max, r.psnr_mean, r.psnr_min,
+                            r.popping_mean, r.popping_max);
                         runs_csv << line;
                         std::printf("  %s", line);
                         std::fflush(stdout);
@@ -368,6 +491,12 @@ int main(int argc, char** argv) {
                         j["open_edges"] = r.open_edges;
                         j["memory_bytes"] = r.memory_bytes;
                         j["build_ms"] = r.build_ms;
+                        if (r.imaged_frames > 0) {
+                            j["image_differing_share"] = {
+                                {"mean", r.image_diff_mean}, {"max", r.image_diff_max}};
+                            j["psnr_db"] = {{"mean", r.psnr_mean}, {"min", r.psnr_min}};
+                            j["popping_share"] = {{"mean", r.popping_mean}, {"max", r.popping_max}};
+                        }
                         runs.push_back(j);
                     }
         }

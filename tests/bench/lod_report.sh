@@ -73,7 +73,7 @@ facets() { # $1: x column, $2: y column, $3: title, $4: x label, $5: y label, $6
     echo "set terminal pngcairo size 1400,1000 font 'sans,10' noenhanced"
     echo "set key top right; set grid; set style data linespoints"
     # log axes: an exact zero (the full mesh's error) is drawn at 0.001
-    echo "floor0(v) = v > 0.001 ? v : 0.001"
+    echo "lo = 0.001; floor0(v) = v > lo ? v : lo"
     echo "set output '$charts/cpu_vs_error.png'"
     # CPU per frame (p50) against measured screen error (p99): the Pareto view
     facets 15 6 "CPU per frame against measured screen error (p99 of triangles), one point per tau (0 drawn at 0.001)" \
@@ -84,7 +84,13 @@ facets() { # $1: x column, $2: y column, $3: title, $4: x label, $5: y label, $6
     echo "set output '$charts/error_vs_triangles.png'"
     facets 9 14 "Measured screen error (max) against triangles drawn (0 drawn at 0.001)" \
         "triangles (median)" "screen error max (px)" "set logscale x; set logscale y"
-    echo "set output '$charts/upload_vs_tau.png'"
+    echo "set output '$charts/image_vs_triangles.png'"
+    facets 9 24 "Image error against triangles: share of pixels off the full-resolution render by more than 16/255 (0 drawn at 1e-5)" \
+        "triangles (median)" "share of pixels" "set logscale x; set logscale y; lo = 1e-5"
+    echo "set output '$charts/popping_vs_tau.png'"
+    facets 4 28 "Popping against tau: share of pixels whose change from the last frame differs from the full-resolution sequence (0 drawn at 1e-5)" \
+        "tau (px)" "share of pixels" "set logscale x; set logscale y; lo = 1e-5"
+    echo "set output '$charts/upload_vs_tau.png'; lo = 0.001"
     facets 4 11 "Bytes uploaded per frame (mean) against tau" "tau (px)" "bytes per frame" \
         "set logscale x; set logscale y"
     # per-frame CPU of one flight at tau 1, events marked
@@ -110,7 +116,8 @@ if [ -n "$smoke" ]; then
     for f in runs.csv frames.csv runs.json; do
         [ -s "$out/$f" ] || { echo "lod_report: $out/$f is missing or empty"; exit 1; }
     done
-    for f in cpu_vs_error triangles_vs_tau error_vs_triangles upload_vs_tau frame_series; do
+    for f in cpu_vs_error triangles_vs_tau error_vs_triangles image_vs_triangles popping_vs_tau \
+        upload_vs_tau frame_series; do
         [ "$(stat -c %s "$charts/$f.png")" -gt 10000 ] || {
             echo "lod_report: $charts/$f.png is missing or blank"
             exit 1

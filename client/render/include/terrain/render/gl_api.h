@@ -43,6 +43,7 @@ namespace terrain::render {
     X(PFNGLENABLEVERTEXATTRIBARRAYPROC, EnableVertexAttribArray)                                   \
     X(PFNGLVERTEXATTRIBPOINTERPROC, VertexAttribPointer)                                           \
     X(PFNGLDRAWELEMENTSPROC, DrawElements)                                                         \
+    X(PFNGLDRAWARRAYSPROC, DrawArrays)                                                             \
     X(PFNGLCREATESHADERPROC, CreateShader)                                                         \
     X(PFNGLDELETESHADERPROC, DeleteShader)                                                         \
     X(PFNGLSHADERSOURCEPROC, ShaderSource)                                                         \
