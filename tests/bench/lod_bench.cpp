@@ -107,9 +107,9 @@ struct RunResult {
     bench::Summary triangles;
     bench::Summary upload_bytes;
     double bound_max = 0.0;
-    double error_max = 0.0;  ///< over measured frames
-    double error_p99 = 0.0;  ///< largest per-frame p99
-    double error_mean = 0.0; ///< mean of the frames' means
+    double error_max = 0.0;       ///< over measured frames
+    double error_p99 = 0.0;       ///< largest per-frame p99
+    double error_mean = 0.0;      ///< mean of the frames' means
     double image_diff_mean = 0.0; ///< share of pixels off the full-resolution render
     double image_diff_max = 0.0;
     double psnr_mean = 0.0;
