@@ -4,7 +4,8 @@
 # charts with gnuplot into docs/lod/ (the ones BENCHMARKS.md shows; the CSV and JSON stay in
 # out/lod/). Build first: cmake --preset release && cmake --build --preset release.
 #
-#   bash tests/bench/lod_report.sh            # the full report (about 20 minutes on 2 cores)
+#   bash tests/bench/lod_report.sh            # the full report (about 50 minutes on 2 cores;
+#                                             # markdown tables in out/lod/tables.md)
 #   bash tests/bench/lod_report.sh --smoke D  # a tiny map and few frames into D, then checks
 #                                             # that every file is there and not empty
 set -euo pipefail
@@ -28,12 +29,33 @@ if [ -n "$smoke" ]; then
         --taus 1,4 --caps 0,3000 --out-dir "$out" > "$out/lod_bench.log"
     scenarios="small:cruise small:low small:whip small:battle"
     series="small:battle small:teleport"
+    cap_scenario=small:cruise
+    cap=3000
 else
-    dems=$(ls ../shared/data/dem 2> /dev/null | grep -v README | tr '\n' ',' || true)
-    "$bench" --maps "default,${dems%,}" --frames 240 --measures 8 --pre-shots 1000 \
-        --taus 0.25,0.5,1,2,4,8 --caps 0,150000 --out-dir "$out" | tee "$out/lod_bench.log"
+    # three passes, one table: every flight on the default map and the SRTM tile at six taus;
+    # the other DEMs cruising and low; and a triangle cap that binds
+    common=(--frames 180 --measures 6 --pre-shots 1000 --save-frames)
+    "$bench" --maps default,srtm_n44w072 --taus 0.25,0.5,1,2,4,8 --caps 0 \
+        "${common[@]}" --out-dir "$out/main" | tee "$out/lod_bench.log"
+    others=$(ls ../shared/data/dem 2> /dev/null | grep -v -e README -e srtm_n44w072 |
+        tr '\n' ',' || true)
+    if [ -n "$others" ]; then
+        "$bench" --maps "${others%,}" --flights cruise,low --taus 0.5,1,2,4 --caps 0 \
+            "${common[@]}" --out-dir "$out/dems" | tee -a "$out/lod_bench.log"
+    fi
+    "$bench" --maps default,srtm_n44w072 --flights cruise,battle \
+        --methods split_merge,split_only,chunked --taus 0.25,0.5,1 --caps 60000 \
+        "${common[@]}" --out-dir "$out/cap" | tee -a "$out/lod_bench.log"
+    for f in runs.csv frames.csv; do
+        head -n 1 "$out/main/$f" > "$out/$f"
+        for pass in main dems cap; do
+            if [ -f "$out/$pass/$f" ]; then tail -n +2 "$out/$pass/$f" >> "$out/$f"; fi
+        done
+    done
     scenarios="srtm_n44w072:cruise srtm_n44w072:low srtm_n44w072:whip default:battle"
     series="default:battle srtm_n44w072:teleport"
+    cap_scenario=srtm_n44w072:cruise
+    cap=60000
 fi
 
 methods="split_merge split_only full_mesh chunked"
@@ -51,6 +73,16 @@ for s in $scenarios $series; do
         awk -F, -v map="$map" -v flight="$flight" -v m="$m" \
             '$1 == map && $2 == flight && $3 == m && $4 == 1 && $5 == 0' "$out/frames.csv" \
             > "$series_dir/frames_${map}_${flight}_$m.csv"
+    done
+done
+
+cap_map=${cap_scenario%%:*}
+cap_flight=${cap_scenario##*:}
+for m in split_merge split_only chunked; do
+    for c in 0 "$cap"; do
+        awk -F, -v map="$cap_map" -v flight="$cap_flight" -v m="$m" -v c="$c" \
+            '$1 == map && $2 == flight && $3 == m && $5 == c' "$out/runs.csv" \
+            > "$series_dir/cap_${m}_$c.csv"
     done
 done
 
@@ -93,6 +125,22 @@ facets() { # $1: x column, $2: y column, $3: title, $4: x label, $5: y label, $6
     echo "set output '$charts/upload_vs_tau.png'; lo = 0.001"
     facets 4 11 "Bytes uploaded per frame (mean) against tau" "tau (px)" "bytes per frame" \
         "set logscale x; set logscale y"
+    # the cap: triangles and the error it costs, with and without it
+    echo "set output '$charts/cap.png'; lo = 0.001"
+    echo "set multiplot layout 1,2 title '$cap_map, $cap_flight: a cap of $cap triangles against none'"
+    for pair in "9:triangles (median)" "13:error bound, largest (px)"; do
+        col=${pair%%:*}
+        label=${pair#*:}
+        plots=""
+        for m in split_merge split_only chunked; do
+            for c in 0 "$cap"; do
+                plots+="'$series_dir/cap_${m}_$c.csv' using 4:(floor0(\$$col)) title '$m, cap $c', "
+            done
+        done
+        echo "set title '$label'; set xlabel 'tau (px)'; set ylabel '$label'; set logscale x; set logscale y"
+        echo "plot ${plots%, }"
+    done
+    echo "unset multiplot"
     # per-frame CPU of one flight at tau 1, events marked
     echo "set output '$charts/frame_series.png'"
     echo "set multiplot layout 2,1 title 'CPU per frame at tau = 1 px (teleports marked in grey; in the battle a shot lands every frame)'"
@@ -111,13 +159,14 @@ facets() { # $1: x column, $2: y column, $3: title, $4: x label, $5: y label, $6
     echo "unset multiplot"
 } > "$out/charts.gp"
 gnuplot "$out/charts.gp"
+python3 tests/bench/lod_tables.py "$out/runs.csv" 1 > "$out/tables.md"
 
 if [ -n "$smoke" ]; then
-    for f in runs.csv frames.csv runs.json; do
+    for f in runs.csv frames.csv runs.json tables.md; do
         [ -s "$out/$f" ] || { echo "lod_report: $out/$f is missing or empty"; exit 1; }
     done
     for f in cpu_vs_error triangles_vs_tau error_vs_triangles image_vs_triangles popping_vs_tau \
-        upload_vs_tau frame_series; do
+        upload_vs_tau frame_series cap; do
         [ "$(stat -c %s "$charts/$f.png")" -gt 10000 ] || {
             echo "lod_report: $charts/$f.png is missing or blank"
             exit 1

@@ -1,6 +1,4 @@
-#include "shader_program.h"
-#include "terrain_shaders.h"
-
+#include <terrain/render/terrain_program.h>
 #include <terrain/render/terrain_renderer.h>
 #include <terrain/surface_query.h>
 
@@ -12,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <tuple>
 
 namespace terrain::render {
 
@@ -43,19 +42,10 @@ GLsizeiptr sizeOf(std::uint64_t bytes) {
 Result<std::unique_ptr<TerrainRenderer>> TerrainRenderer::create(const GlContext& context) {
     context.makeCurrent();
     std::unique_ptr<TerrainRenderer> r(new TerrainRenderer(context));
-    Result<unsigned> program = buildProgram(r->gl_, kTerrainVertexShader, kTerrainFragmentShader);
+    Result<TerrainProgram> program = TerrainProgram::build(r->gl_);
     if (!program)
         return program.error();
-    r->program_ = *program;
-    const GlApi& gl = r->gl_;
-    r->u_view_projection_ = gl.GetUniformLocation(r->program_, "u_view_projection");
-    r->u_tile_from_eye_ = gl.GetUniformLocation(r->program_, "u_tile_from_eye");
-    r->u_clip_ = gl.GetUniformLocation(r->program_, "u_clip");
-    r->u_sun_ = gl.GetUniformLocation(r->program_, "u_sun");
-    r->u_sky_ = gl.GetUniformLocation(r->program_, "u_sky");
-    r->u_haze_ = gl.GetUniformLocation(r->program_, "u_haze");
-    r->u_height_range_ = gl.GetUniformLocation(r->program_, "u_height_range");
-    r->u_line_colour_ = gl.GetUniformLocation(r->program_, "u_line_colour");
+    r->program_ = std::make_unique<TerrainProgram>(*program);
     return r;
 }
 
@@ -64,8 +54,8 @@ TerrainRenderer::TerrainRenderer(const GlContext& context) : context_(context), 
 TerrainRenderer::~TerrainRenderer() {
     context_.makeCurrent(); // the names belong to this context
     releaseTiles();
-    if (program_ != 0)
-        gl_.DeleteProgram(program_);
+    if (program_ != nullptr)
+        program_->destroy(gl_);
 }
 
 void TerrainRenderer::releaseTiles() {
@@ -96,14 +86,7 @@ UploadStats TerrainRenderer::sync(roam::Tessellator& tess, const Terrain& terrai
         have_spec_ = true;
         // colours follow the world's first heights (its samples, whichever tiles are loaded):
         // a crater must not recolour the whole map
-        height_lo_ = std::numeric_limits<float>::max();
-        height_hi_ = std::numeric_limits<float>::lowest();
-        for (std::int32_t y = 0; y < spec_.height; ++y)
-            for (std::int32_t x = 0; x < spec_.width; ++x) {
-                const auto z = static_cast<float>(terrain.sample(x, y) * spec_.metresPerUnit());
-                height_lo_ = std::min(height_lo_, z);
-                height_hi_ = std::max(height_hi_, z);
-            }
+        std::tie(height_lo_, height_hi_) = TerrainProgram::heightRange(terrain);
         tiles_.resize(static_cast<std::size_t>(tess.tileCount()));
         for (TileBuffers& tb : tiles_) {
             gl_.GenVertexArrays(1, &tb.vao);
@@ -443,41 +426,13 @@ DrawStats TerrainRenderer::draw(
     gl.Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     if (tiles_.empty())
         return stats;
-    gl.Enable(GL_DEPTH_TEST);
-    gl.DepthFunc(GL_LEQUAL);
-    for (GLenum plane = 0; plane < 4; ++plane)
-        gl.Enable(GL_CLIP_DISTANCE0 + plane);
-    gl.UseProgram(program_);
-
-    // eye at the origin: the view matrix is a rotation, positions arrive eye-relative
-    const glm::dvec3 forward = glm::normalize(camera.forward);
-    const glm::mat4 view = glm::lookAt(glm::vec3(0.0f), glm::vec3(forward), glm::vec3(camera.up));
-    const double diagonal = std::hypot(spec_.extentX(), spec_.extentY());
-    // the farthest map corner from the eye, wherever the eye is
-    const double off_map =
-        std::hypot(camera.eye.x - 0.5 * spec_.extentX(), camera.eye.y - 0.5 * spec_.extentY());
-    const double reach = diagonal + off_map + std::abs(camera.eye.z) +
-                         std::max(std::abs(height_lo_), std::abs(height_hi_));
-    const float aspect = static_cast<float>(camera.viewport_width) /
-                         static_cast<float>(std::max(camera.viewport_height, 1));
-    const glm::mat4 projection = glm::perspective(
-        static_cast<float>(camera.fovy_radians), aspect, static_cast<float>(camera.near_plane),
-        static_cast<float>(reach * 1.5 + 1.0));
-    const glm::mat4 view_projection = projection * view;
-    gl.UniformMatrix4fv(u_view_projection_, 1, GL_FALSE, glm::value_ptr(view_projection));
-    const glm::vec3 sun = glm::normalize(options.sun);
-    gl.Uniform3f(u_sun_, sun.x, sun.y, sun.z);
-    gl.Uniform3f(u_sky_, options.sky.x, options.sky.y, options.sky.z);
-    gl.Uniform1f(u_haze_, options.haze_metres > 0.0f ? 1.0f / options.haze_metres : 0.0f);
-    gl.Uniform2f(u_height_range_, height_lo_, height_hi_);
+    program_->beginFrame(gl, camera, spec_, height_lo_, height_hi_, options);
 
     if (options.mode == DrawMode::kWireframe) {
         gl.PolygonMode(GL_FRONT_AND_BACK, GL_LINE);
-        gl.Uniform4f(u_line_colour_, 0.0f, 0.0f, 0.0f, 0.0f);
         drawTiles(tess, camera, stats);
     } else {
         gl.PolygonMode(GL_FRONT_AND_BACK, GL_FILL);
-        gl.Uniform4f(u_line_colour_, 0.0f, 0.0f, 0.0f, 0.0f);
         if (options.mode == DrawMode::kShadedWireframe) {
             // push the fill back so the lines drawn over it win the depth test
             gl.Enable(GL_POLYGON_OFFSET_FILL);
@@ -487,16 +442,14 @@ DrawStats TerrainRenderer::draw(
         if (options.mode == DrawMode::kShadedWireframe) {
             gl.Disable(GL_POLYGON_OFFSET_FILL);
             gl.PolygonMode(GL_FRONT_AND_BACK, GL_LINE);
-            gl.Uniform4f(u_line_colour_, 0.05f, 0.05f, 0.08f, 0.6f);
+            program_->setLineColour(gl, 0.05f, 0.05f, 0.08f, 0.6f);
             DrawStats lines;
             drawTiles(tess, camera, lines);
         }
     }
     gl.PolygonMode(GL_FRONT_AND_BACK, GL_FILL);
-    for (GLenum plane = 0; plane < 4; ++plane)
-        gl.Disable(GL_CLIP_DISTANCE0 + plane);
     gl.BindVertexArray(0);
-    gl.UseProgram(0);
+    program_->endFrame(gl);
     return stats;
 }
 
@@ -510,13 +463,7 @@ void TerrainRenderer::drawTiles(
             continue;
         const double corner_x = (t % spec_.tilesX()) * tile_metres;
         const double corner_y = (t / spec_.tilesX()) * tile_metres;
-        gl_.Uniform3f(
-            u_tile_from_eye_, static_cast<float>(corner_x - camera.eye.x),
-            static_cast<float>(corner_y - camera.eye.y), static_cast<float>(-camera.eye.z));
-        gl_.Uniform4f(
-            u_clip_, static_cast<float>(-corner_x), static_cast<float>(-corner_y),
-            static_cast<float>(spec_.extentX() - corner_x),
-            static_cast<float>(spec_.extentY() - corner_y));
+        program_->setOrigin(gl_, camera, spec_, corner_x, corner_y);
         gl_.BindVertexArray(tb.vao);
         gl_.DrawElements(
             GL_TRIANGLES, static_cast<GLsizei>(tb.triangles * 3), GL_UNSIGNED_INT, nullptr);

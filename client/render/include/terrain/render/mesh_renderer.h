@@ -20,6 +20,8 @@
 
 namespace terrain::render {
 
+class TerrainProgram;
+
 class MeshRenderer {
   public:
     /// Compiles the program in `context` (current on this thread).
@@ -42,17 +44,9 @@ class MeshRenderer {
 
     const GlContext& context_;
     const GlApi& gl_;
-    unsigned program_ = 0;
+    std::unique_ptr<TerrainProgram> program_;
     unsigned vao_ = 0;
     unsigned buffer_ = 0;
-    int u_view_projection_ = -1;
-    int u_tile_from_eye_ = -1;
-    int u_clip_ = -1;
-    int u_sun_ = -1;
-    int u_sky_ = -1;
-    int u_haze_ = -1;
-    int u_height_range_ = -1;
-    int u_line_colour_ = -1;
     float height_lo_ = 0.0f;
     float height_hi_ = 0.0f;
     std::vector<float> scratch_;

@@ -25,6 +25,8 @@
 
 namespace terrain::render {
 
+class TerrainProgram;
+
 /// One vertex in a tile's buffer: metres from the tile's corner (z absolute) and the normal
 /// packed as signed 10:10:10:2 (GL_INT_2_10_10_10_REV, normalised).
 struct GpuVertex {
@@ -140,15 +142,7 @@ class TerrainRenderer {
 
     const GlContext& context_;
     const GlApi& gl_;
-    unsigned program_ = 0;
-    int u_view_projection_ = -1;
-    int u_tile_from_eye_ = -1;
-    int u_clip_ = -1;
-    int u_sun_ = -1;
-    int u_sky_ = -1;
-    int u_haze_ = -1;
-    int u_height_range_ = -1;
-    int u_line_colour_ = -1;
+    std::unique_ptr<TerrainProgram> program_;
 
     std::vector<TileBuffers> tiles_;
     WorldSpec spec_{};
