@@ -8,17 +8,21 @@
 #                                             # markdown tables in out/lod/tables.md)
 #   bash tests/bench/lod_report.sh --smoke D  # a tiny map and few frames into D, then checks
 #                                             # that every file is there and not empty
+#   bash tests/bench/lod_report.sh --charts   # the charts and tables again from out/lod/*/
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 
 bench=${LOD_BENCH:-build/release/tests/lod_bench}
 smoke=""
+charts_only=""
 out=out/lod
 charts=docs/lod
 if [ "${1:-}" = "--smoke" ]; then
     smoke=1
     out=${2:?--smoke needs an output directory}
     charts=$out
+elif [ "${1:-}" = "--charts" ]; then
+    charts_only=1
 fi
 [ -x "$bench" ] || { echo "lod_report: $bench is not built (cmake --build --preset release)"; exit 2; }
 command -v gnuplot > /dev/null || { echo "lod_report: gnuplot is missing (apt-get install gnuplot-nox)"; exit 2; }
@@ -35,15 +39,15 @@ else
     # three passes, one table: every flight on the default map and the SRTM tile at six taus;
     # the other DEMs cruising and low; and a triangle cap that binds
     common=(--frames 180 --measures 6 --pre-shots 1000 --save-frames)
-    "$bench" --maps default,srtm_n44w072 --taus 0.25,0.5,1,2,4,8 --caps 0 \
+    [ -n "$charts_only" ] || "$bench" --maps default,srtm_n44w072 --taus 0.25,0.5,1,2,4,8 --caps 0 \
         "${common[@]}" --out-dir "$out/main" | tee "$out/lod_bench.log"
     others=$(ls ../shared/data/dem 2> /dev/null | grep -v -e README -e srtm_n44w072 |
         tr '\n' ',' || true)
-    if [ -n "$others" ]; then
+    if [ -n "$others" ] && [ -z "$charts_only" ]; then
         "$bench" --maps "${others%,}" --flights cruise,low --taus 0.5,1,2,4 --caps 0 \
             "${common[@]}" --out-dir "$out/dems" | tee -a "$out/lod_bench.log"
     fi
-    "$bench" --maps default,srtm_n44w072 --flights cruise,battle \
+    [ -n "$charts_only" ] || "$bench" --maps default,srtm_n44w072 --flights cruise,battle \
         --methods split_merge,split_only,chunked --taus 0.25,0.5,1 --caps 60000 \
         "${common[@]}" --out-dir "$out/cap" | tee -a "$out/lod_bench.log"
     for f in runs.csv frames.csv; do

@@ -312,13 +312,17 @@ ChunkedFrame ChunkedLod::update(const roam::Camera& camera) {
             const bool stitch_fails =
                 view.screenError(box, l.edge_error[at(l, x, y) * 4 + e]) > options_.tau_pixels;
             std::int32_t n = leafLevelAt(p[0], p[1]);
-            while (n > li + 1 || (n == li + 1 && stitch_fails)) {
+            // the 2:1 restriction always (conformity needs it); a stitch's error only while the
+            // cap has room (else the bound reports it)
+            while (n > li + 1 || (n == li + 1 && stitch_fails &&
+                                  triangles + 3 * kChunkTriangles <= options_.max_triangles)) {
                 const Level& nl = levels_[sz(n)];
                 const std::int64_t nspan2 = 2 * std::int64_t{K} * nl.step;
                 const auto nx = static_cast<std::int32_t>(p[0] / nspan2);
                 const auto ny = static_cast<std::int32_t>(p[1] / nspan2);
                 split(n, nx, ny);
                 ++f.forced_splits;
+                triangles += 3 * kChunkTriangles;
                 const Level& cl = levels_[sz(n - 1)];
                 for (std::int32_t dy = 0; dy < 2; ++dy)
                     for (std::int32_t dx = 0; dx < 2; ++dx)
@@ -326,6 +330,8 @@ ChunkedFrame ChunkedLod::update(const roam::Camera& camera) {
                             leaves_.push_back({n - 1, 2 * nx + dx, 2 * ny + dy});
                 n = leafLevelAt(p[0], p[1]);
             }
+            if (n == li + 1 && stitch_fails)
+                f.capped = true; // the cap kept a stitch that breaks tau
         }
     }
     // what is drawn, its bound, and what it loads
