@@ -213,8 +213,6 @@ class FullMesh final : public LodMethod {
                 t.triangles += 512;
                 t.vertices += 17 * 17 - 4;
                 const double d = p->deviation_bound * spec.metresPerUnit();
-                lo = std::min(lo, -d + terrain_->sample(x, y) * spec.metresPerUnit());
-                hi = std::max(hi, d + terrain_->sample(x, y) * spec.metresPerUnit());
                 // a patch stays within deviation_bound of its base triangles, whose heights
                 // lie between the corners'
                 for (int c = 0; c < 4; ++c) {

@@ -1,7 +1,5 @@
 #include <terrain/lodlab/screen_measure.h>
-#include <terrain/surface_query.h>
-
-#include <glm/geometric.hpp>
+#include <terrain/roam/screen_error.h>
 
 #include <algorithm>
 #include <cmath>
@@ -15,45 +13,22 @@ MeshError measureMeshError(
     const roam::Camera& camera,
     const ScreenErrorOptions& options) {
     const roam::ViewMetric view(camera);
-    const double cell = terrain.spec().spacingMetres();
-    const double extent_x = terrain.spec().extentX();
-    const double extent_y = terrain.spec().extentY();
     MeshError e;
     std::vector<float> worst;
     worst.reserve(triangles.size() / 3);
     double sum = 0.0;
     for (std::size_t t = 0; t + 2 < triangles.size(); t += 3) {
-        const glm::dvec3 a = triangles[t];
-        const glm::dvec3 b = triangles[t + 1];
-        const glm::dvec3 c = triangles[t + 2];
-        const double edge = std::max({glm::length(b - a), glm::length(c - b), glm::length(a - c)});
-        const int n = std::max(
-            options.min_samples_per_edge,
-            static_cast<int>(std::ceil(edge / cell * options.samples_per_cell)));
-        double here = -1.0;
-        for (int i = 0; i <= n; ++i)
-            for (int j = 0; i + j <= n; ++j) {
-                const double wa = static_cast<double>(i) / n;
-                const double wb = static_cast<double>(j) / n;
-                const glm::dvec3 p = a * wa + b * wb + c * (1.0 - wa - wb);
-                if (p.x > extent_x || p.y > extent_y)
-                    continue; // the padding beyond the map is clipped when drawn
-                const glm::dvec3 truth{p.x, p.y, surfaceHeight(terrain, p.x, p.y)};
-                const roam::ScreenPoint sp = view.project(p);
-                const roam::ScreenPoint st = view.project(truth);
-                if (!view.isVisible(sp) || !view.isVisible(st))
-                    continue;
-                const double d = std::hypot(sp.x - st.x, sp.y - st.y);
-                here = std::max(here, d);
-                sum += d;
-                ++e.samples;
-            }
-        if (here < 0.0)
-            continue;
+        const roam::TriangleError here = roam::measureTriangle(
+            view, terrain, {triangles[t], triangles[t + 1], triangles[t + 2]},
+            options.min_samples_per_edge, options.samples_per_cell);
+        e.samples += here.samples;
+        sum += here.sum_pixels;
+        if (here.worst_pixels < 0.0)
+            continue; // nothing of it on screen
         ++e.triangles;
-        worst.push_back(static_cast<float>(here));
-        e.max_pixels = std::max(e.max_pixels, here);
-        if (here > options.tau_pixels)
+        worst.push_back(static_cast<float>(here.worst_pixels));
+        e.max_pixels = std::max(e.max_pixels, here.worst_pixels);
+        if (here.worst_pixels > options.tau_pixels)
             ++e.triangles_over_tau;
     }
     if (!worst.empty()) {

@@ -9,9 +9,29 @@
 #include <terrain/roam/tessellator.h>
 #include <terrain/terrain.h>
 
+#include <glm/vec3.hpp>
+
+#include <array>
 #include <cstdint>
 
 namespace terrain::roam {
+
+/// One triangle (world metres) against the true surface: sampled on a barycentric grid of n
+/// steps per edge, n = max(min_samples_per_edge, ceil(longest edge / cell * samples_per_cell)),
+/// each point and the surface under it projected; points beyond the map (its padding, clipped
+/// when drawn) or off screen are skipped. Any mesh's measure builds on it (lodlab's too).
+struct TriangleError {
+    double worst_pixels = -1.0; ///< -1: no sample was visible
+    glm::dvec3 worst_point{0.0};
+    std::int64_t samples = 0;
+    double sum_pixels = 0.0;
+};
+TriangleError measureTriangle(
+    const ViewMetric& view,
+    const Terrain& terrain,
+    const std::array<glm::dvec3, 3>& v,
+    int min_samples_per_edge,
+    double samples_per_cell);
 
 struct ScreenErrorOptions {
     /// Samples per triangle edge: at least this many, and at least this many per cell of edge
