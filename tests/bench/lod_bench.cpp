@@ -116,6 +116,10 @@ struct RunResult {
     double psnr_min = 0.0;
     double popping_mean = 0.0; ///< share of pixels that popped
     double popping_max = 0.0;
+    /// share of pixels that change from last frame's mesh to this frame's, both seen from this
+    /// frame's camera (lodlab::meshChangeShare)
+    double lod_change_mean = 0.0;
+    double lod_change_max = 0.0;
     int imaged_frames = 0;
     int measured_frames = 0;
     int frames_over_tau = 0; ///< measured frames whose max exceeds tau
@@ -132,7 +136,7 @@ int main(int argc, char** argv) {
     CLI::App app{"lod_bench: speed against accuracy of every LOD method"};
     std::string maps = "default,srtm_n44w072";
     std::string flights = "cruise,low,hover,whip,teleport,battle";
-    std::string methods = "split_merge,split_only,full_mesh,chunked";
+    std::string methods = "split_merge,split_only,full_mesh,chunked,split_merge_morph";
     std::string taus = "0.25,0.5,1,2,4,8";
     std::string caps = "0";
     int frames = 240;
@@ -147,7 +151,8 @@ int main(int argc, char** argv) {
     bool save_frames = false;
     app.add_option("--maps", maps, "default, small, or DEM names under --dem-dir (comma list)");
     app.add_option("--flights", flights, "cruise, low, hover, whip, teleport, battle");
-    app.add_option("--methods", methods, "split_merge, split_only, full_mesh, chunked");
+    app.add_option(
+        "--methods", methods, "split_merge, split_only, full_mesh, chunked, split_merge_morph");
     app.add_option("--taus", taus, "screen error targets, pixels (comma list)");
     app.add_option("--caps", caps, "triangle caps (comma list; 0: none)");
     app.add_option("--frames", frames, "frames per run")->check(CLI::Range(1, 100000));
@@ -212,13 +217,15 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "lod_bench: cannot write into %s\n", out_dir.c_str());
         return 2;
     }
-    frames_csv << "map,flight,method,tau,cap,frame,cpu_ms,triangles,upload_bytes,bound_px,"
-                  "error_max_px,error_p99_px,open_edges,event,image_diff,psnr_db,popping\n";
-    runs_csv << "map,flight,method,tau,cap,cpu_p50_ms,cpu_p99_ms,cpu_max_ms,triangles_p50,"
-                "triangles_max,upload_mean_bytes,upload_p99_bytes,bound_max_px,error_max_px,"
-                "error_p99_px,error_mean_px,measured_frames,frames_over_tau,frames_capped,"
-                "rebuilds,open_edges,memory_bytes,build_ms,image_diff_mean,image_diff_max,"
-                "psnr_mean_db,psnr_min_db,popping_mean,popping_max\n";
+    frames_csv
+        << "map,flight,method,tau,cap,frame,cpu_ms,triangles,upload_bytes,bound_px,"
+           "error_max_px,error_p99_px,open_edges,event,image_diff,psnr_db,popping,lod_change\n";
+    runs_csv
+        << "map,flight,method,tau,cap,cpu_p50_ms,cpu_p99_ms,cpu_max_ms,triangles_p50,"
+           "triangles_max,upload_mean_bytes,upload_p99_bytes,bound_max_px,error_max_px,"
+           "error_p99_px,error_mean_px,measured_frames,frames_over_tau,frames_capped,"
+           "rebuilds,open_edges,memory_bytes,build_ms,image_diff_mean,image_diff_max,"
+           "psnr_mean_db,psnr_min_db,popping_mean,popping_max,lod_change_mean,lod_change_max\n";
 
     Json report = Json::object();
     report["benchmark"] = "lod_bench";
@@ -254,6 +261,7 @@ int main(int argc, char** argv) {
         }
         std::printf("map %s: %s\n", map->name.c_str(), map->note.c_str());
         std::unique_ptr<render::MeshRenderer> painter;
+        std::array<std::uint8_t, 3> sky_rgb{};
         if (images) {
             auto made = render::MeshRenderer::create(*gl, *map->terrain);
             if (!made) {
@@ -261,6 +269,9 @@ int main(int argc, char** argv) {
                 return 2;
             }
             painter = std::move(*made);
+            // the sky's colour as read back: nothing drawn
+            const io::RgbImage empty = painter->render({}, *map->terrain, roam::Camera{});
+            sky_rgb = {empty.rgb[0], empty.rgb[1], empty.rgb[2]};
         }
         for (lodlab::FlightKind kind : flight_list) {
             // the battle's world: pre_shots craters at the zone, then more during the flight
@@ -313,6 +324,7 @@ int main(int argc, char** argv) {
                         if (images && reference.empty())
                             truth = lodlab::makeMethod(lodlab::Method::kFullMesh, world, mo);
                         io::RgbImage previous;
+                        std::vector<glm::dvec3> previous_mesh; // last frame's, when measuring
                         double psnr_sum = 0.0;
                         r.psnr_min = lodlab::kPsnrIdentical;
                         std::vector<double> cpu;
@@ -358,9 +370,21 @@ int main(int argc, char** argv) {
                             }
                             lodlab::ImageError image;
                             double popped = -1.0;
+                            double lod_change = -1.0;
                             if (images && (measure || before_measure)) {
                                 lod->visibleTriangles(drawn);
                                 io::RgbImage shot = painter->render(drawn, world, ff.camera);
+                                if (measure && !previous_mesh.empty()) {
+                                    const io::RgbImage was =
+                                        painter->render(previous_mesh, world, ff.camera);
+                                    lod_change =
+                                        lodlab::meshChangeShare(was, shot, sky_rgb, threshold);
+                                    r.lod_change_mean += lod_change;
+                                    r.lod_change_max = std::max(r.lod_change_max, lod_change);
+                                }
+                                previous_mesh.clear();
+                                if (before_measure)
+                                    previous_mesh = drawn;
                                 if (measure) {
                                     image = lodlab::compareImages(shot, reference[i], threshold);
                                     if (!previous.rgb.empty() && reference.count(i - 1) != 0)
@@ -393,6 +417,7 @@ int main(int argc, char** argv) {
                                 previous = std::move(shot);
                             } else {
                                 previous.rgb.clear();
+                                previous_mesh.clear();
                             }
                             cpu.push_back(ms);
                             tris.push_back(static_cast<double>(f.triangles));
@@ -424,7 +449,7 @@ int main(int argc, char** argv) {
                             char line[512];
                             std::snprintf(
                                 line, sizeof line,
-                                "%s,%s,%s,%g,%lld,%d,%.4f,%lld,%lld,%.4f,%s,%s,%s,%s,%s,%s,%s\n",
+                                "%s,%s,%s,%g,%lld,%d,%.4f,%lld,%lld,%.4f,%s,%s,%s,%s,%s,%s,%s,%s\n",
                                 map->name.c_str(), lodlab::toString(kind), lodlab::toString(method),
                                 tau, static_cast<long long>(cap), i, ms,
                                 static_cast<long long>(f.triangles),
@@ -435,7 +460,8 @@ int main(int argc, char** argv) {
                                 measure && images ? std::to_string(image.differing_share).c_str()
                                                   : "",
                                 measure && images ? std::to_string(image.psnr_db).c_str() : "",
-                                popped >= 0.0 ? std::to_string(popped).c_str() : "");
+                                popped >= 0.0 ? std::to_string(popped).c_str() : "",
+                                lod_change >= 0.0 ? std::to_string(lod_change).c_str() : "");
                             frames_csv << line;
                         }
                         r.error_mean = r.measured_frames > 0 ? mean_sum / r.measured_frames : 0;
@@ -445,8 +471,10 @@ int main(int argc, char** argv) {
                             // the first measured frame may have no predecessor rendered
                             const int popped_frames =
                                 r.imaged_frames - (measured_at.front() == 0 ? 1 : 0);
-                            if (popped_frames > 0)
+                            if (popped_frames > 0) {
                                 r.popping_mean /= popped_frames;
+                                r.lod_change_mean /= popped_frames;
+                            }
                         }
                         r.memory_bytes = lod->memoryBytes();
                         r.cpu_ms = bench::summarize(cpu);
@@ -458,7 +486,8 @@ int main(int argc, char** argv) {
                         std::snprintf(
                             line, sizeof line,
                             "%s,%s,%s,%g,%lld,%.4f,%.4f,%.4f,%.0f,%.0f,%.0f,%.0f,%.4f,%.4f,%.4f,"
-                            "%.4f,%d,%d,%d,%d,%lld,%zu,%.1f,%.5f,%.5f,%.2f,%.2f,%.5f,%.5f\n",
+                            "%.4f,%d,%d,%d,%d,%lld,%zu,%.1f,%.5f,%.5f,%.2f,%.2f,%.5f,%.5f,%.6f,%."
+                            "6f\n",
                             r.key.map.c_str(), r.key.flight.c_str(), lodlab::toString(method), tau,
                             static_cast<long long>(cap), r.cpu_ms.p50, r.cpu_ms.p99, r.cpu_ms.max,
                             r.triangles.p50, r.triangles.max, r.upload_bytes.mean,
@@ -466,7 +495,7 @@ int main(int argc, char** argv) {
                             r.measured_frames, r.frames_over_tau, r.frames_capped, r.rebuilds,
                             static_cast<long long>(r.open_edges), r.memory_bytes, r.build_ms,
                             r.image_diff_mean, r.image_diff_max, r.psnr_mean, r.psnr_min,
-                            r.popping_mean, r.popping_max);
+                            r.popping_mean, r.popping_max, r.lod_change_mean, r.lod_change_max);
                         runs_csv << line;
                         std::printf("  %s", line);
                         std::fflush(stdout);
@@ -496,6 +525,8 @@ int main(int argc, char** argv) {
                                 {"mean", r.image_diff_mean}, {"max", r.image_diff_max}};
                             j["psnr_db"] = {{"mean", r.psnr_mean}, {"min", r.psnr_min}};
                             j["popping_share"] = {{"mean", r.popping_mean}, {"max", r.popping_max}};
+                            j["lod_change_share"] = {
+                                {"mean", r.lod_change_mean}, {"max", r.lod_change_max}};
                         }
                         runs.push_back(j);
                     }

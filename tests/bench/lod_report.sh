@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Speed against accuracy, regenerated: runs lod_bench (every LOD method on the default map and
-# every DEM, six flights, tau 0.25-8 px, with and without a binding triangle cap) and draws its
+# every DEM, six flights, tau 0.25-8 px, with and without a binding triangle cap, and geomorphing
+# against plain split/merge) and draws its
 # charts with gnuplot into docs/lod/ (the ones BENCHMARKS.md shows; the CSV and JSON stay in
 # out/lod/). Build first: cmake --preset release && cmake --build --preset release.
 #
-#   bash tests/bench/lod_report.sh            # the full report (about 50 minutes on 2 cores;
+#   bash tests/bench/lod_report.sh            # the full report (about 65 minutes on 2 cores;
 #                                             # markdown tables in out/lod/tables.md)
 #   bash tests/bench/lod_report.sh --smoke D  # a tiny map and few frames into D, then checks
 #                                             # that every file is there and not empty
@@ -50,9 +51,13 @@ else
     [ -n "$charts_only" ] || "$bench" --maps default,srtm_n44w072 --flights cruise,battle \
         --methods split_merge,split_only,chunked --taus 0.25,0.5,1 --caps 60000 \
         "${common[@]}" --out-dir "$out/cap" | tee -a "$out/lod_bench.log"
+    # geomorphing: the flights where pops would show, split/merge's runs are the main pass's
+    [ -n "$charts_only" ] || "$bench" --maps default,srtm_n44w072 --flights cruise,low,whip,battle \
+        --methods split_merge_morph --taus 0.5,1,2,4 --caps 0 "${common[@]}" \
+        --out-dir "$out/morph" | tee -a "$out/lod_bench.log"
     for f in runs.csv frames.csv; do
         head -n 1 "$out/main/$f" > "$out/$f"
-        for pass in main dems cap; do
+        for pass in main dems cap morph; do
             if [ -f "$out/$pass/$f" ]; then tail -n +2 "$out/$pass/$f" >> "$out/$f"; fi
         done
     done
@@ -62,7 +67,7 @@ else
     cap=60000
 fi
 
-methods="split_merge split_only full_mesh chunked"
+methods="split_merge split_only full_mesh chunked split_merge_morph"
 series_dir=$out/series
 rm -rf "$series_dir"
 mkdir -p "$series_dir"
@@ -126,6 +131,9 @@ facets() { # $1: x column, $2: y column, $3: title, $4: x label, $5: y label, $6
     echo "set output '$charts/popping_vs_tau.png'"
     facets 4 28 "Popping against tau: share of pixels whose change from the last frame differs from the full-resolution sequence (0 drawn at 1e-5)" \
         "tau (px)" "share of pixels" "set logscale x; set logscale y; lo = 1e-5"
+    echo "set output '$charts/lod_change_vs_tau.png'"
+    facets 4 30 "LOD change against tau: share of pixels that differ between the meshes of the last frame and this one, both drawn from this camera (0 drawn at 1e-7)" \
+        "tau (px)" "share of pixels" "set logscale x; set logscale y; lo = 1e-7"
     echo "set output '$charts/upload_vs_tau.png'; lo = 0.001"
     facets 4 11 "Bytes uploaded per frame (mean) against tau" "tau (px)" "bytes per frame" \
         "set logscale x; set logscale y"
@@ -170,7 +178,7 @@ if [ -n "$smoke" ]; then
         [ -s "$out/$f" ] || { echo "lod_report: $out/$f is missing or empty"; exit 1; }
     done
     for f in cpu_vs_error triangles_vs_tau error_vs_triangles image_vs_triangles popping_vs_tau \
-        upload_vs_tau frame_series cap; do
+        lod_change_vs_tau upload_vs_tau frame_series cap; do
         [ "$(stat -c %s "$charts/$f.png")" -gt 10000 ] || {
             echo "lod_report: $charts/$f.png is missing or blank"
             exit 1
@@ -182,5 +190,13 @@ if [ -n "$smoke" ]; then
     done
     echo "lod_report: smoke run complete in $out"
 else
+    # the battle's frames at tau 1 as each method draws it, and the reference
+    mkdir -p "$charts/frames"
+    for f in reference split_merge chunked split_merge_morph; do
+        for pass in main morph; do
+            src=$out/$pass/frames/default_battle_$f.png
+            if [ -f "$src" ]; then cp "$src" "$charts/frames/"; fi
+        done
+    done
     echo "lod_report: charts in $charts/, data in $out/"
 fi

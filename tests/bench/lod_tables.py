@@ -25,9 +25,9 @@ def main(path, tau="1"):
             scenarios.append(key)
     out.append(f"### Every scenario at tau = {tau} px, no cap\n")
     out.append("| map | flight | method | CPU ms p50 / p99 | triangles p50 | upload KB/frame mean "
-               "| screen error max / p99 px | bound px | pixels off | PSNR dB | popping | over tau "
-               "| rebuilds | open edges |")
-    out.append("| --- " * 14 + "|")
+               "| screen error max / p99 px | bound px | pixels off | PSNR dB | popping | LOD change "
+               "| over tau | rebuilds | open edges |")
+    out.append("| --- " * 15 + "|")
     for m, f in scenarios:
         for r in rows:
             if r["map"] != m or r["flight"] != f or r["cap"] != "0":
@@ -39,7 +39,8 @@ def main(path, tau="1"):
                 f"| {fmt(r['triangles_p50'])} | {fmt(float(r['upload_mean_bytes']) / 1024, 3)} "
                 f"| {fmt(r['error_max_px'])} / {fmt(r['error_p99_px'])} | {fmt(r['bound_max_px'])} "
                 f"| {float(r['image_diff_mean']) * 100:.3f} % | {fmt(r['psnr_mean_db'], 3)} "
-                f"| {float(r['popping_mean']) * 100:.3f} % | {r['frames_over_tau']}/{r['measured_frames']} "
+                f"| {float(r['popping_mean']) * 100:.3f} % "
+                f"| {float(r['lod_change_mean']) * 100:.4f} % | {r['frames_over_tau']}/{r['measured_frames']} "
                 f"| {r['rebuilds']} | {r['open_edges']} |")
     # capped runs
     capped = [r for r in rows if r["cap"] != "0"]
@@ -68,7 +69,9 @@ def main(path, tau="1"):
             b = best[r["method"]]
             if b is None or float(r["triangles_p50"]) < float(b["triangles_p50"]):
                 best[r["method"]] = r
-        for method in ("split_merge", "split_only", "chunked", "full_mesh"):
+        for method in ("split_merge", "split_merge_morph", "split_only", "chunked", "full_mesh"):
+            if not any(r["map"] == m and r["flight"] == f and r["method"] == method for r in rows):
+                continue  # not run in this scenario
             r = best[method]
             if r is None:
                 out.append(f"| {m} | {f} | {method} | none within 0.5 px | | | |")

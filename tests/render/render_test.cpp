@@ -10,6 +10,7 @@
 #include <terrain/roam/tessellator.h>
 #include <terrain/surface_query.h>
 
+#include <glm/geometric.hpp>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -46,6 +47,7 @@ struct Scene {
     std::unique_ptr<render::TerrainRenderer> renderer;
     std::unique_ptr<roam::Tessellator> tess;
     const Terrain* terrain = nullptr;
+    render::UploadStats morphed; ///< the last frame's geomorph uploads
 
     Scene(
         const Terrain& t,
@@ -79,6 +81,7 @@ struct Scene {
         const render::UploadStats u = renderer->sync(*tess, *terrain);
         if (uploads != nullptr)
             *uploads = u;
+        morphed = renderer->morph(*tess, camera);
         render::RenderOptions options;
         options.mode = mode;
         renderer->draw(*tess, camera, options);
@@ -243,6 +246,39 @@ TEST(OsmesaRender, RoamAtOnePixelLooksLikeTheFullResolutionMesh) {
 
 // Buffers follow the tessellation: a still camera uploads nothing, a crater uploads the tiles
 // it changed, and the renderer sends exactly the bytes the tiles' dirty pages hold.
+TEST(OsmesaRender, GeomorphDrawsTheSlidingHeightsWithinTauAndSendsOnlyWhatMoved) {
+    Terrain t = testing::makeHills(4, 257, 257, 1.0);
+    for (int k = 0; k < 12; ++k)
+        blast(t, 40.0 + 15.0 * k, 60.0 + 11.0 * k, 3.0 + k, 1.0 + 0.4 * k);
+    // refined to half a pixel, drawn within one
+    Scene morph(t, 0.5);
+    Scene plain(t, 0.5);
+    Scene full(t, 1e-4);
+    ASSERT_TRUE(morph.ok() && plain.ok() && full.ok());
+    morph.renderer->setGeomorph(0.5);
+    const roam::Camera view = lookAt({-20.0, -20.0, 70.0}, {128.0, 128.0, 30.0});
+    const io::RgbImage a = morph.frame(view);
+    EXPECT_GT(morph.morphed.vertex_bytes, 0u) << "vertices slide at this view";
+    const io::RgbImage b = plain.frame(view);
+    EXPECT_EQ(plain.morphed.vertex_bytes, 0u) << "geomorphing is off";
+    const io::RgbImage c = full.frame(view);
+    EXPECT_GT(countDiffering(a, b, 0).differing, 0) << "the slide is drawn";
+    const testing::PixelCount n = countDiffering(a, c, 16);
+    std::printf(
+        "geomorph (0.5 px refined, 1 px drawn) vs full resolution: %.3f %% of pixels differ\n",
+        100.0 * n.fraction());
+    EXPECT_LT(n.fraction(), 0.03);
+    // the same view again: nothing slides, nothing is sent
+    (void)morph.frame(view);
+    EXPECT_EQ(morph.morphed.vertex_bytes, 0u);
+    // a step closer: only vertices that moved, far fewer than the tiles hold
+    roam::Camera closer = view;
+    closer.eye += glm::normalize(view.forward) * 2.0;
+    (void)morph.frame(closer);
+    EXPECT_GT(morph.morphed.vertex_bytes, 0u);
+    EXPECT_LT(morph.morphed.vertex_bytes, morph.renderer->shadowBytes() / 2);
+}
+
 TEST(OsmesaRender, UploadsOnlyWhatChanged) {
     Terrain t = testing::makeHills(7, 257, 257, 1.0);
     Scene scene(t, 1.0);

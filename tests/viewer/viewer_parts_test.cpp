@@ -70,6 +70,8 @@ TEST(ViewerOptions, RulesAreNamed) {
     EXPECT_EQ(parse("--tau 0"), "--tau must be > 0 (pixels)");
     EXPECT_EQ(parse("--tau -1"), "--tau must be > 0 (pixels)");
     EXPECT_EQ(parse("--max-triangles 10"), "--max-triangles must be >= 1000");
+    EXPECT_EQ(
+        parse("--geomorph 1"), "--geomorph must be within [0, 1) (a share of tau; 0 turns it off)");
     EXPECT_EQ(parse("--width 0"), "--width and --height must be within 1..16384");
     EXPECT_EQ(parse("--size 20"), "--size must be within 65..8193 vertices");
     EXPECT_EQ(parse("--frames -1"), "--frames must be >= 0");

@@ -179,6 +179,28 @@ TEST(ViewerProgram, FliesCratersAndEndsVerified) {
     EXPECT_GT(report.at("bytes_uploaded").get<std::uint64_t>(), 0u);
 }
 
+TEST(ViewerProgram, GeomorphingDrawsTheFlight) {
+    if (!onPath("xvfb-run"))
+        GTEST_SKIP() << "xvfb-run is not on PATH (apt-get install xvfb xauth)";
+    const fs::path png = outputDir() / "viewer_geomorph.png";
+    const fs::path report_path = outputDir() / "viewer_geomorph.json";
+    fs::remove(png);
+    fs::remove(report_path);
+    const ProgramRun run = runViewer(
+        "--size 257 --width 320 --height 200 --frames 60 --fly --geomorph 0.5 --screenshot '" +
+        png.string() + "' --report '" + report_path.string() + "'");
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    const io::RgbImage image = readRgbPng(png);
+    ASSERT_EQ(image.width, 320) << png;
+    EXPECT_GT(testing::distinctColours(image), 500);
+    std::ifstream in(report_path);
+    ASSERT_TRUE(in.good()) << report_path << "\n" << run.output;
+    const nlohmann::json report = nlohmann::json::parse(in);
+    EXPECT_EQ(report.at("frames").get<int>(), 60);
+    EXPECT_GT(report.at("triangles").get<int>(), 0);
+    EXPECT_TRUE(report.at("synced").get<bool>());
+}
+
 TEST(ViewerProgram, NamesTheServerItCannotJoin) {
     if (!onPath("xvfb-run"))
         GTEST_SKIP() << "xvfb-run is not on PATH (apt-get install xvfb xauth)";

@@ -145,16 +145,19 @@ std::vector<FlightFrame> makeFlight(const Terrain& terrain, const FlightOptions&
             break;
         }
         case FlightKind::kBattle: {
+            // a straight pass 12 m over the ground, from 3 zone radii before the centre to 3
+            // beyond it, across the flight, looking ahead and 15 degrees down (its craters are
+            // in view all the way)
             const BattleZone z = battleZone(terrain);
-            const double orbit = 3.0 * z.radius;
-            const double a = 10.0 * kDeg * t;
-            const glm::dvec2 p{z.x + orbit * std::cos(a), z.y + orbit * std::sin(a)};
+            const double heading = 30.0 * kDeg;
+            const double along =
+                -3.0 * z.radius +
+                6.0 * z.radius * static_cast<double>(i) /
+                    static_cast<double>(std::max<std::size_t>(frames.size() - 1, 1));
+            const glm::dvec2 p{z.x + along * std::cos(heading), z.y + along * std::sin(heading)};
             const double ground = groundAround(terrain, p.x, p.y, 5.0);
             const glm::dvec3 eye{p.x, p.y, ground + 12.0};
-            const glm::dvec3 target{z.x, z.y, surfaceHeight(terrain, z.x, z.y)};
-            const glm::dvec3 d = target - eye;
-            f.camera =
-                cameraAt(o, eye, std::atan2(d.y, d.x), std::atan2(d.z, std::hypot(d.x, d.y)), 0.5);
+            f.camera = cameraAt(o, eye, heading, -15.0 * kDeg, 0.5);
             f.shots = i == 0 ? 0 : o.battle_shots_per_frame;
             break;
         }

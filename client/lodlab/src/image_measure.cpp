@@ -62,4 +62,25 @@ double poppingShare(
     return static_cast<double>(popped) / static_cast<double>(pixels);
 }
 
+double meshChangeShare(
+    const io::RgbImage& previous_mesh,
+    const io::RgbImage& frame,
+    const std::array<std::uint8_t, 3>& sky,
+    int threshold) {
+    if (!sameSize(previous_mesh, frame))
+        return 1.0;
+    std::int64_t changed = 0;
+    const std::size_t pixels = frame.rgb.size() / 3;
+    for (std::size_t p = 0; p < pixels; ++p) {
+        const std::uint8_t* was = previous_mesh.rgb.data() + 3 * p;
+        if (was[0] == sky[0] && was[1] == sky[1] && was[2] == sky[2])
+            continue;
+        int worst = 0;
+        for (std::size_t c = 0; c < 3; ++c)
+            worst = std::max(worst, std::abs(int{frame.rgb[3 * p + c]} - int{was[c]}));
+        changed += worst > threshold ? 1 : 0;
+    }
+    return static_cast<double>(changed) / static_cast<double>(std::max<std::size_t>(pixels, 1));
+}
+
 } // namespace terrain::lodlab

@@ -23,19 +23,29 @@ std::size_t sz(std::int64_t v) {
 
 class RoamMethod final : public LodMethod {
   public:
-    RoamMethod(const Terrain& terrain, const MethodOptions& options, roam::TessellationMode mode)
-        : tess_(terrain, tessellatorOptions(options, mode)), mode_(mode) {
+    /// morph_fraction 0: no geomorphing; else refined to that share of tau and morphed.
+    RoamMethod(
+        const Terrain& terrain,
+        const MethodOptions& options,
+        roam::TessellationMode mode,
+        double morph_fraction)
+        : tess_(terrain, tessellatorOptions(options, mode, morph_fraction)), mode_(mode),
+          morph_fraction_(morph_fraction) {
         uploaded_version_.assign(sz(tess_.tileCount()), 0);
         uploaded_.assign(sz(tess_.tileCount()), 0);
+        drawn_.resize(sz(tess_.tileCount()));
     }
 
     Method method() const override {
+        if (morph_fraction_ > 0.0)
+            return Method::kSplitMergeMorph;
         return mode_ == roam::TessellationMode::kSplitMerge ? Method::kSplitMerge
                                                             : Method::kSplitOnly;
     }
 
     MethodFrame update(const roam::Camera& camera) override {
         const roam::FrameStats st = tess_.update(camera);
+        const roam::ViewMetric view(camera);
         MethodFrame f;
         f.triangles = st.visible_triangles;
         f.upload_bytes = st.index_bytes_written;
@@ -44,13 +54,27 @@ class RoamMethod final : public LodMethod {
             if (!tess_.tileVisible(t))
                 continue;
             const std::uint32_t version = tess_.tileVertexVersion(t);
-            if (uploaded_[sz(t)] == 0 || uploaded_version_[sz(t)] != version) {
+            const bool whole = uploaded_[sz(t)] == 0 || uploaded_version_[sz(t)] != version;
+            if (whole) {
                 f.upload_bytes += std::int64_t{tess_.tileVertexCount(t)} * kVertexBytes;
                 uploaded_version_[sz(t)] = version;
                 uploaded_[sz(t)] = 1;
             }
+            if (morph_fraction_ > 0.0) {
+                // the renderer sends the vertices whose drawn height moved
+                std::vector<double>& drawn = drawn_[sz(t)];
+                morph_scratch_.assign(drawn.begin(), drawn.end()); // last frame's
+                drawn.resize(sz(tess_.tileVertexCount(t)), 0.0);
+                tess_.morphedHeights(t, view, morphFull(), drawn);
+                if (!whole)
+                    for (std::size_t i = 0; i < drawn.size(); ++i)
+                        if (i >= morph_scratch_.size() ||
+                            static_cast<float>(drawn[i]) != static_cast<float>(morph_scratch_[i]))
+                            f.upload_bytes += kVertexBytes;
+            }
         }
-        f.error_bound_pixels = st.error_bound_pixels;
+        f.error_bound_pixels = morph_fraction_ > 0.0 ? std::max(st.error_bound_pixels, morphFull())
+                                                     : st.error_bound_pixels;
         f.rebuilt = st.rebuilt;
         f.over_budget = st.budget_exhausted;
         f.operations = st.splits + st.merges;
@@ -74,9 +98,9 @@ class RoamMethod final : public LodMethod {
                     continue; // a free slot
                 for (std::size_t j = 0; j < 3; ++j) {
                     const roam::TileVertex v = tess_.tileVertex(tile, indices[i + j]);
-                    out.push_back(
-                        {v.position.x * mpl, v.position.y * mpl,
-                         static_cast<double>(v.height) * mpf});
+                    const double z = morph_fraction_ > 0.0 ? drawn_[sz(tile)][indices[i + j]]
+                                                           : static_cast<double>(v.height) * mpf;
+                    out.push_back({v.position.x * mpl, v.position.y * mpl, z});
                 }
             }
         }
@@ -94,10 +118,14 @@ class RoamMethod final : public LodMethod {
     roam::Tessellator& tessellator() { return tess_; }
 
   private:
+    /// Where vertices reach their height: tau scaled back from the refinement's threshold (the
+    /// cap's, when it binds).
+    double morphFull() const { return tess_.threshold() / morph_fraction_; }
+
     static roam::TessellatorOptions
-    tessellatorOptions(const MethodOptions& o, roam::TessellationMode mode) {
+    tessellatorOptions(const MethodOptions& o, roam::TessellationMode mode, double morph_fraction) {
         roam::TessellatorOptions t;
-        t.tau_pixels = o.tau_pixels;
+        t.tau_pixels = morph_fraction > 0.0 ? o.tau_pixels * morph_fraction : o.tau_pixels;
         t.max_triangles = o.max_triangles;
         t.mode = mode;
         return t;
@@ -105,6 +133,9 @@ class RoamMethod final : public LodMethod {
 
     roam::Tessellator tess_;
     roam::TessellationMode mode_;
+    double morph_fraction_ = 0.0;
+    std::vector<std::vector<double>> drawn_; ///< per tile: morphed heights (metres) last frame
+    std::vector<double> morph_scratch_;
     std::vector<std::uint32_t> uploaded_version_;
     std::vector<std::uint8_t> uploaded_;
 };
@@ -319,6 +350,8 @@ const char* toString(Method method) {
         return "full_mesh";
     case Method::kChunked:
         return "chunked";
+    case Method::kSplitMergeMorph:
+        return "split_merge_morph";
     }
     return "?";
 }
@@ -334,9 +367,14 @@ std::unique_ptr<LodMethod>
 makeMethod(Method method, const Terrain& terrain, const MethodOptions& options) {
     switch (method) {
     case Method::kSplitMerge:
-        return std::make_unique<RoamMethod>(terrain, options, roam::TessellationMode::kSplitMerge);
+        return std::make_unique<RoamMethod>(
+            terrain, options, roam::TessellationMode::kSplitMerge, 0.0);
     case Method::kSplitOnly:
-        return std::make_unique<RoamMethod>(terrain, options, roam::TessellationMode::kSplitOnly);
+        return std::make_unique<RoamMethod>(
+            terrain, options, roam::TessellationMode::kSplitOnly, 0.0);
+    case Method::kSplitMergeMorph:
+        return std::make_unique<RoamMethod>(
+            terrain, options, roam::TessellationMode::kSplitMerge, kMorphFraction);
     case Method::kFullMesh:
         return std::make_unique<FullMesh>(terrain);
     case Method::kChunked:

@@ -142,6 +142,7 @@ void TerrainRenderer::evict(TileBuffers& tb, UploadStats& stats) {
     gl_.BufferData(GL_ELEMENT_ARRAY_BUFFER, 0, nullptr, GL_DYNAMIC_DRAW);
     gl_.BindVertexArray(0);
     std::vector<GpuVertex>().swap(tb.shadow);
+    std::vector<float>().swap(tb.drawn_z);
     tb.has_vertices = false;
     tb.has_indices = false;
     tb.vertex_capacity = 0;
@@ -160,7 +161,8 @@ std::uint32_t TerrainRenderer::residentTiles() const {
 std::uint64_t TerrainRenderer::shadowBytes() const {
     std::uint64_t bytes = 0;
     for (const TileBuffers& tb : tiles_)
-        bytes += std::uint64_t{tb.shadow.capacity()} * sizeof(GpuVertex);
+        bytes += std::uint64_t{tb.shadow.capacity()} * sizeof(GpuVertex) +
+                 std::uint64_t{tb.drawn_z.capacity()} * sizeof(float);
     return bytes;
 }
 
@@ -326,10 +328,38 @@ void TerrainRenderer::uploadVertices(
             GL_ARRAY_BUFFER, sizeOf(std::uint64_t{count} * sizeof(GpuVertex)), nullptr,
             GL_STATIC_DRAW);
     }
-    const auto differs = [&](std::uint32_t i) {
-        return i >= old_count ||
-               std::memcmp(&scratch_vertices_[i], &tb.shadow[i], sizeof(GpuVertex)) != 0;
-    };
+    // what the buffer draws: the true height where this sends, the morphed one elsewhere (a
+    // bridged gap sends its drawn height again)
+    tb.drawn_z.resize(count);
+    scratch_send_.resize(count);
+    for (std::uint32_t i = 0; i < count; ++i) {
+        const bool send = i >= old_count ||
+                          std::memcmp(&scratch_vertices_[i], &tb.shadow[i], sizeof(GpuVertex)) != 0;
+        scratch_send_[i] = send ? 1 : 0;
+        if (send)
+            tb.drawn_z[i] = scratch_vertices_[i].z;
+        else
+            scratch_vertices_[i].z = tb.drawn_z[i];
+    }
+    const std::uint64_t bytes =
+        sendRuns(count, [&](std::uint32_t i) { return scratch_send_[i] != 0; });
+    for (std::uint32_t i = 0; i < count; ++i)
+        scratch_vertices_[i].z =
+            static_cast<float>(static_cast<double>(scratch_keys_[i].height) * per_fine);
+    // the copy keeps this tile's size: swapping would hand the scratch's capacity (the largest
+    // tile synced so far) to every tile in turn
+    tb.shadow.assign(scratch_vertices_.begin(), scratch_vertices_.end());
+    if (tb.shadow.capacity() > tb.shadow.size() + tb.shadow.size() / 2)
+        tb.shadow.shrink_to_fit();
+    tb.vertex_version = tess.tileVertexVersion(tile);
+    tb.has_vertices = true;
+    stats.vertex_bytes += bytes;
+    if (bytes > 0)
+        ++stats.vertex_tiles;
+}
+
+template <class Differs>
+std::uint64_t TerrainRenderer::sendRuns(std::uint32_t count, Differs&& differs) {
     std::uint64_t bytes = 0;
     std::uint32_t i = 0;
     while (i < count) {
@@ -349,16 +379,47 @@ void TerrainRenderer::uploadVertices(
         bytes += run;
         i = last;
     }
-    // the copy keeps this tile's size: swapping would hand the scratch's capacity (the largest
-    // tile synced so far) to every tile in turn
-    tb.shadow.assign(scratch_vertices_.begin(), scratch_vertices_.end());
-    if (tb.shadow.capacity() > tb.shadow.size() + tb.shadow.size() / 2)
-        tb.shadow.shrink_to_fit();
-    tb.vertex_version = tess.tileVertexVersion(tile);
-    tb.has_vertices = true;
-    stats.vertex_bytes += bytes;
-    if (bytes > 0)
+    return bytes;
+}
+
+UploadStats TerrainRenderer::morph(const roam::Tessellator& tess, const roam::Camera& camera) {
+    UploadStats stats;
+    if (!(geomorph_ > 0.0) || !have_spec_)
+        return stats;
+    context_.makeCurrent();
+    const roam::ViewMetric view(camera);
+    const double full = tess.threshold() / geomorph_;
+    for (std::int32_t t = 0; t < tess.tileCount(); ++t) {
+        TileBuffers& tb = tiles_[static_cast<std::size_t>(t)];
+        if (!tess.tileVisible(t) || !tb.has_vertices)
+            continue;
+        const auto count = static_cast<std::uint32_t>(tess.tileVertexCount(t));
+        if (count != tb.shadow.size())
+            continue; // not synced with this mesh
+        // vertices the mesh does not use keep what the buffer has
+        scratch_heights_.assign(tb.drawn_z.begin(), tb.drawn_z.end());
+        tess.morphedHeights(t, view, full, scratch_heights_);
+        scratch_vertices_.assign(tb.shadow.begin(), tb.shadow.end());
+        scratch_send_.resize(count);
+        bool any = false;
+        for (std::uint32_t i = 0; i < count; ++i) {
+            const auto z = static_cast<float>(scratch_heights_[i]);
+            scratch_send_[i] = z != tb.drawn_z[i] ? 1 : 0;
+            any = any || scratch_send_[i] != 0;
+            tb.drawn_z[i] = z;
+            scratch_vertices_[i].z = z;
+        }
+        if (!any)
+            continue;
+        gl_.BindVertexArray(0);
+        gl_.BindBuffer(GL_ARRAY_BUFFER, tb.vertex_buffer);
+        stats.vertex_bytes +=
+            sendRuns(count, [&](std::uint32_t i) { return scratch_send_[i] != 0; });
         ++stats.vertex_tiles;
+    }
+    totals_.vertex_bytes += stats.vertex_bytes;
+    totals_.vertex_tiles += stats.vertex_tiles;
+    return stats;
 }
 
 void TerrainRenderer::uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, UploadStats& stats) {

@@ -477,7 +477,7 @@ TessellatorMemory Tessellator::memory() const {
         for (const auto& h : tile_holes_[t])
             m.meshes += h.capacity() * sizeof(std::int32_t);
     }
-    m.scratch = block_bounds_.memoryBytes();
+    m.scratch = block_bounds_.memoryBytes() + morph_stamp_.capacity() * sizeof(std::uint32_t);
     return m;
 }
 

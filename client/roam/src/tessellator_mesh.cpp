@@ -31,16 +31,25 @@ bool Tessellator::emitted(const Triangle& t) const {
 }
 
 TileMesh::Indices Tessellator::indicesOf(const Triangle& t, std::int32_t tile) const {
-    const std::int32_t tx = tile % spec_.tilesX();
-    const std::int32_t ty = tile / spec_.tilesX();
-    TileMesh::Indices out{};
-    const std::array<LatticePoint, 3> v = {t.apex, t.left, t.right};
+    return {
+        vertexIndex(t.apex, t, tile), vertexIndex(t.left, t, tile), vertexIndex(t.right, t, tile)};
+}
+
+std::uint32_t Tessellator::vertexIndex(LatticePoint v, const Triangle& t, std::int32_t tile) const {
+    return vertexAt(v, t, tile).index;
+}
+
+Tessellator::MeshVertex
+Tessellator::vertexAt(LatticePoint v, const Triangle& t, std::int32_t tile) const {
     if (t.level <= kCellTriangleLevel) {
-        for (std::size_t i = 0; i < 3; ++i)
-            out[i] = static_cast<std::uint32_t>(
-                (v[i].y / kLatticePerCell - ty * kTileCells) * kTileVertices +
-                (v[i].x / kLatticePerCell - tx * kTileCells));
-        return out;
+        const std::int32_t tx = tile % spec_.tilesX();
+        const std::int32_t ty = tile / spec_.tilesX();
+        const std::int32_t gx = v.x / kLatticePerCell;
+        const std::int32_t gy = v.y / kLatticePerCell;
+        return {
+            static_cast<std::uint32_t>(
+                (gy - ty * kTileCells) * kTileVertices + (gx - tx * kTileCells)),
+            static_cast<std::int64_t>(terrain_->sample(gx, gy)) * kFineUnitsPerQuantum};
     }
     // a triangle finer than the base cells lies in one cell, and its vertices are in the grains
     // of that cell's block its split diamonds keep resident (block_grains.h)
@@ -48,20 +57,23 @@ TileMesh::Indices Tessellator::indicesOf(const Triangle& t, std::int32_t tile) c
     const std::int32_t cx = c3.x / (3 * kLatticePerCell);
     const std::int32_t cy = c3.y / (3 * kLatticePerCell);
     const std::int32_t block = blocks_.blockOf(cx, cy);
-    const GrainTables& tables = grainTables();
-    const auto& segments = tile_segments_[idx(tile)];
-    for (std::size_t i = 0; i < 3; ++i) {
-        const std::int32_t k = v[i].x - cx * kLatticePerCell;
-        const std::int32_t l = v[i].y - cy * kLatticePerCell;
-        const int g = grainOf(k, l);
-        const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
-        TERRAIN_ASSERT(chunk >= 0);
-        const std::int32_t segment = grains_[static_cast<std::size_t>(g)].segment[idx(chunk)];
-        out[i] = static_cast<std::uint32_t>(
-            kBaseVertices + segments[idx(segment)].offset +
-            tables.vertex_slot[static_cast<std::size_t>(l * kBlockSide + k)]);
-    }
-    return out;
+    const std::int32_t k = v.x - cx * kLatticePerCell;
+    const std::int32_t l = v.y - cy * kLatticePerCell;
+    const int g = grainOf(k, l);
+    const Grain& grain = grains_[static_cast<std::size_t>(g)];
+    const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
+    TERRAIN_ASSERT(chunk >= 0);
+    const std::int32_t segment = grain.segment[idx(chunk)];
+    const std::uint16_t slot =
+        grainTables().vertex_slot[static_cast<std::size_t>(l * kBlockSide + k)];
+    return {
+        static_cast<std::uint32_t>(
+            kBaseVertices + tile_segments_[idx(tile)][idx(segment)].offset + slot),
+        grain.base[idx(chunk)] +
+            grain.heights
+                [idx(chunk) *
+                     static_cast<std::size_t>(kGrainVertices[static_cast<std::size_t>(g)]) +
+                 slot]};
 }
 
 bool Tessellator::hasActiveChild(const Diamond& d) const {

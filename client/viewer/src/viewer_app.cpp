@@ -165,6 +165,11 @@ class Viewer {
 
     OverlayControls controls_;
     double applied_tau_ = 0.0;
+    /// What the tessellator refines to for a drawn bound of `tau`: a share of it when
+    /// geomorphing (the slide spends the rest).
+    double refineTau(double tau) const {
+        return options_.geomorph > 0.0 ? tau * options_.geomorph : tau;
+    }
     std::string message_;
     ViewerReport report_;
     std::int64_t answers_pending_ = 0;
@@ -242,6 +247,7 @@ Status Viewer::openWindow() {
     if (!renderer)
         return renderer.error();
     renderer_ = std::move(*renderer);
+    renderer_->setGeomorph(options_.geomorph);
     Result<std::unique_ptr<ViewerOverlay>> overlay = ViewerOverlay::create(window_->handle());
     if (!overlay)
         return overlay.error();
@@ -325,7 +331,7 @@ Status Viewer::join() {
     // feedChanges (the terrain object stays the same one)
     replica_.takeDirty();
     roam::TessellatorOptions to;
-    to.tau_pixels = options_.tau_pixels;
+    to.tau_pixels = refineTau(options_.tau_pixels);
     to.max_triangles = options_.max_triangles;
     tess_ = std::make_unique<roam::Tessellator>(replica_.terrain(), to);
     budget_ = std::make_unique<client::FrameBudget>(client::FrameBudgetOptions{
@@ -388,7 +394,7 @@ Status Viewer::loop() {
         if (static_cast<double>(controls_.tau_pixels) != applied_tau_ &&
             controls_.tau_pixels > 0.0f) {
             applied_tau_ = static_cast<double>(controls_.tau_pixels);
-            tess_->setTau(applied_tau_);
+            tess_->setTau(refineTau(applied_tau_));
         }
 
         const int fb_w = window_->width();
@@ -405,6 +411,8 @@ Status Viewer::loop() {
         last_stats_ = tess_->update(camera);
         const Clock::time_point t1 = Clock::now();
         last_upload_ = renderer_->sync(*tess_, terrain);
+        const render::UploadStats morphed = renderer_->morph(*tess_, camera);
+        last_upload_.vertex_bytes += morphed.vertex_bytes;
         render_options.mode = drawModeOf(controls_.draw_mode);
         renderer_->draw(*tess_, camera, render_options);
         // wait for the pixels, so "draw" is what drawing cost and not just the submission

@@ -26,6 +26,9 @@ void addViewerOptions(CLI::App& app, ViewerOptions& o) {
     app.add_option("--width", o.width, "window width in pixels");
     app.add_option("--height", o.height, "window height in pixels");
     app.add_option("--tau", o.tau_pixels, "screen-space error bound in pixels");
+    app.add_option(
+        "--geomorph", o.geomorph,
+        "refine to this share of --tau and slide vertices instead of popping them (0: off)");
     app.add_option("--max-triangles", o.max_triangles, "tessellation triangle cap");
     app.add_option(
         "--frame-ms", o.frame_ms,
@@ -51,6 +54,8 @@ void addViewerOptions(CLI::App& app, ViewerOptions& o) {
 Status finishViewerOptions(ViewerOptions& o) {
     if (!(o.tau_pixels > 0.0) || !std::isfinite(o.tau_pixels))
         return rule("--tau must be > 0 (pixels)");
+    if (!(o.geomorph >= 0.0 && o.geomorph < 1.0))
+        return rule("--geomorph must be within [0, 1) (a share of tau; 0 turns it off)");
     if (o.max_triangles < 1000)
         return rule("--max-triangles must be >= 1000");
     if (!(o.frame_ms >= 0.0) || !std::isfinite(o.frame_ms))

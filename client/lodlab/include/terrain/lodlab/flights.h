@@ -11,8 +11,9 @@
 //   hover     still, turning slowly on the spot
 //   whip      drifting, and every 40 frames a 180-degree whip pan in 8 frames (1350 deg/s)
 //   teleport  cruise, jumping to another part of the map every 60 frames
-//   battle    orbiting a battle zone low while shots land (the caller fires them with the
-//             battle generator: BattleFrame::shots per frame, after pre_shots before frame 0)
+//   battle    straight across a battle zone, 12 m over its craters, while shots land (the
+//             caller fires them with the battle generator: BattleFrame::shots per frame, after
+//             pre_shots before frame 0)
 
 #include <terrain/roam/camera.h>
 #include <terrain/terrain.h>
@@ -50,7 +51,7 @@ struct FlightFrame {
     int shots = 0;         ///< battle: shots to fire (and apply) before this frame
 };
 
-/// The battle zone every battle flight orbits: the map's centre.
+/// The battle zone every battle flight crosses: the map's centre.
 struct BattleZone {
     double x = 0.0;
     double y = 0.0;

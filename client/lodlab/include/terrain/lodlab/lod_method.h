@@ -23,9 +23,15 @@
 
 namespace terrain::lodlab {
 
-enum class Method : std::uint8_t { kSplitMerge, kSplitOnly, kFullMesh, kChunked };
-inline constexpr std::array<Method, 4> kAllMethods = {
-    Method::kSplitMerge, Method::kSplitOnly, Method::kFullMesh, Method::kChunked};
+/// kSplitMergeMorph: split/merge refined to kMorphFraction * tau, its vertices geomorphed
+/// (Tessellator::morphedHeights) so that the drawn surface is within tau at every instant.
+enum class Method : std::uint8_t { kSplitMerge, kSplitOnly, kFullMesh, kChunked, kSplitMergeMorph };
+inline constexpr std::array<Method, 5> kAllMethods = {
+    Method::kSplitMerge, Method::kSplitOnly, Method::kFullMesh, Method::kChunked,
+    Method::kSplitMergeMorph};
+/// Where geomorphing refines (a share of tau): a vertex starts to slide at this share of tau
+/// and reaches its height at tau.
+inline constexpr double kMorphFraction = 0.5;
 
 const char* toString(Method method);
 std::optional<Method> parseMethod(const std::string& name);

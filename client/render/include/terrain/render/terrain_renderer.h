@@ -82,6 +82,16 @@ class TerrainRenderer {
     /// moved (a change below a height's rounding, or a float's). Without it only vertices
     /// that moved, and their tile's vertices within a cell of them, are redone.
     void surfaceChanged(std::span<const CellRect> cells, bool all);
+    /// Geomorphing: with `fraction` in (0, 1), morph() draws each vertex sliding between its
+    /// hypotenuse's midpoint and its height (roam::Tessellator::morphedHeights), reaching it at
+    /// the tessellator's threshold / fraction; the tessellator must then refine to fraction x
+    /// the tau wanted (its setTau), and what is drawn is within that tau at every instant. 0:
+    /// off (every vertex drawn at its height).
+    void setGeomorph(double fraction) { geomorph_ = fraction; }
+    double geomorph() const { return geomorph_; }
+    /// After sync(), before draw(), with geomorphing on: sends the visible tiles' vertices
+    /// whose drawn height moved for `camera` (runs of them, as sync() does). Off: nothing.
+    UploadStats morph(const roam::Tessellator& tess, const roam::Camera& camera);
     /// Clears to the sky and draws the visible tiles as seen by `camera` into the whole
     /// framebuffer.
     DrawStats
@@ -111,8 +121,10 @@ class TerrainRenderer {
         std::uint32_t vertex_version = 0;
         bool has_vertices = false;
         std::uint32_t vertex_capacity = 0;
-        /// The buffer's contents: what to send is what differs from it.
+        /// The buffer's contents (true heights): what to send is what differs from it.
         std::vector<GpuVertex> shadow;
+        /// The heights in the buffer, which geomorphing moves away from the shadow's.
+        std::vector<float> drawn_z;
         std::uint32_t index_capacity_slots = 0;
         bool has_indices = false;
         std::uint32_t triangles = 0;
@@ -138,6 +150,9 @@ class TerrainRenderer {
         TileBuffers& tb,
         UploadStats& stats);
     void uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, UploadStats& stats);
+    /// Sends the vertices [0, count) of scratch_vertices_ for which `differs` holds, in runs
+    /// that bridge short equal gaps; returns the bytes sent. The buffer is bound.
+    template <class Differs> std::uint64_t sendRuns(std::uint32_t count, Differs&& differs);
     void drawTiles(const roam::Tessellator& tess, const roam::Camera& camera, DrawStats& stats);
 
     const GlContext& context_;
@@ -156,6 +171,9 @@ class TerrainRenderer {
     std::vector<roam::TileVertex> scratch_keys_;
     std::vector<GpuVertex> scratch_vertices_;
     std::vector<std::uint32_t> scratch_pages_;
+    std::vector<double> scratch_heights_;
+    std::vector<std::uint8_t> scratch_send_;
+    double geomorph_ = 0.0;
     UploadStats totals_;
 };
 

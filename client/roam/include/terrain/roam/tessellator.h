@@ -183,6 +183,27 @@ class Tessellator {
     /// renderer reads when a tile's vertex version moves.
     void tileVertices(std::int32_t tile, std::span<TileVertex> out) const;
 
+    /// Geomorphing: the height (metres) each vertex of the tile's mesh is drawn at for `view`,
+    /// so that splits and merges slide instead of pop; vertices the mesh does not use are left
+    /// as they are in `out` (size tileVertexCount(tile)). A split diamond's centre v, with
+    /// hypotenuse ends a and b, is drawn at
+    ///     drawn(v) = (drawn(a) + drawn(b)) / 2 + s * (z(v) - (z(a) + z(b)) / 2),
+    ///     s = clamp((P - threshold()) / (full_pixels - threshold()), 0, 1),
+    /// P its priority ignoring the frustum (so a turn of the view moves nothing). A diamond is
+    /// split when P passes threshold(), where s = 0: the split adds a vertex on the drawn edge
+    /// and changes nothing drawn; a merge below it likewise. Every vertex reaches its height
+    /// once P >= full_pixels. Refine to threshold() = fraction * tau and pass full_pixels = tau:
+    /// the drawn surface is within tau at every instant, because drawn - z at a point p is a
+    /// sum over the split diamonds D above p (each nested in the last) of (1 - s_D) times D's
+    /// own centre offset, and D's delta holds its offset plus its children's delta. Where the
+    /// coarsest D with s_D < 1 exists, the error at p is within its delta, i.e. under its
+    /// P < full_pixels; where none does, within the leaf's delta, under threshold(). The same
+    /// arithmetic on the same vertices in every tile: no cracks. Out of the frustum nothing is
+    /// drawn, and nothing is written. Costs a walk of the tile's split diamonds in view, one
+    /// priority each: O(mesh) per frame, not O(change) as split/merge.
+    void morphedHeights(
+        std::int32_t tile, const ViewMetric& view, double full_pixels, std::span<double> out) const;
+
     /// Every leaf triangle of the current mesh, emitted or not (tests: conformity).
     template <class Visit> void forEachLeaf(Visit&& visit) const;
 
@@ -400,7 +421,6 @@ class Tessellator {
     /// An upper bound on priority() for a diamond whose block is not resident, from its cells'
     /// records (no heights needed).
     double recordPriority(const ViewMetric& m, const Diamond& d) const;
-    double priorityAnyDirection(const ViewMetric& m, const Diamond& d, DiamondId id) const;
     double childBounds(LatticePoint c, double& zlo, double& zhi) const;
 
     // mesh
@@ -414,6 +434,20 @@ class Tessellator {
     bool emitted(const Triangle& t) const;
     std::uint32_t tileKey(const Triangle& t, std::int32_t tile) const;
     TileMesh::Indices indicesOf(const Triangle& t, std::int32_t tile) const;
+    /// Index in the tile's vertex array of `v`, a vertex of triangle `t` of the tile.
+    std::uint32_t vertexIndex(LatticePoint v, const Triangle& t, std::int32_t tile) const;
+    struct MeshVertex {
+        std::uint32_t index = 0;
+        std::int64_t height = 0; ///< fine units
+    };
+    /// vertexIndex, and the vertex's height.
+    MeshVertex vertexAt(LatticePoint v, const Triangle& t, std::int32_t tile) const;
+    /// morphedHeights' walk below triangle t (vertex indices apex, left, right).
+    struct MorphWalk;
+    /// Drawn and true heights (metres) of a triangle's apex, left and right.
+    using Corners = std::array<double, 3>;
+    void
+    morphBelow(MorphWalk& walk, const Triangle& t, const Corners& drawn, const Corners& z) const;
     void splitTriangles(const Diamond& d, bool split, bool forced);
     std::int64_t splitGain(const Diamond& d) const;
     Diamond tileRoot(std::int32_t tile) const;
@@ -560,6 +594,9 @@ class Tessellator {
     double sweep_phase_ = 0.0;
     std::int64_t triangles_ = 0;
     std::int64_t missing_block_refusals_ = 0;
+    /// morphedHeights: per vertex of the tile, the call that last wrote it
+    mutable std::vector<std::uint32_t> morph_stamp_;
+    mutable std::uint32_t morph_call_ = 0;
 };
 
 template <class Visit> void Tessellator::forEachLeaf(Visit&& visit) const {

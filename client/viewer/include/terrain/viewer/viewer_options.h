@@ -27,6 +27,9 @@ struct ViewerOptions {
     int width = 1280;
     int height = 720;
     double tau_pixels = 2.0; ///< llvmpipe draws about 10 M triangles/s
+    /// Geomorphing (TerrainRenderer::setGeomorph): refine to this share of tau, draw vertices
+    /// sliding so that no split or merge pops; 0: off (BENCHMARKS: it costs CPU per frame).
+    double geomorph = 0.0;
     std::int64_t max_triangles = 300'000;
     /// Frame time (tessellation + drawing) to hold by lowering the triangle cap; 0: off. 50 ms
     /// is 20 frames a second from llvmpipe at 720p (about 90,000 lit triangles).
