@@ -277,20 +277,10 @@ int main(int argc, char** argv) {
             // the battle's world: pre_shots craters at the zone, then more during the flight
             // (the same seed for every method, so each sees the same world)
             const bool battle = kind == lodlab::FlightKind::kBattle;
-            BattleOptions bo;
-            const lodlab::BattleZone zone = lodlab::battleZone(*map->terrain);
-            bo.zone_x = zone.x;
-            bo.zone_y = zone.y;
-            bo.zone_radius = zone.radius;
             Terrain start = *map->terrain;
-            BattleGenerator pre(bo);
+            BattleGenerator pre = lodlab::battleGenerator(start);
             if (battle)
-                for (int s = 0; s < pre_shots; ++s) {
-                    const BattleShot shot = pre.next(start);
-                    if (shot.crater)
-                        if (auto op = quantizeOp(*shot.crater, start.spec()))
-                            (void)start.apply(*op);
-                }
+                lodlab::fireShots(pre, start, pre_shots);
             lodlab::FlightOptions fo;
             fo.kind = kind;
             fo.frames = frames;

@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # Speed against accuracy, regenerated: runs lod_bench (every LOD method on the default map and
-# every DEM, six flights, tau 0.25-8 px, with and without a binding triangle cap, and geomorphing
-# against plain split/merge) and draws its
+# every DEM, six flights, tau 0.25-8 px, with and without a binding triangle cap; geomorphing is
+# one of the methods) and draws its
 # charts with gnuplot into docs/lod/ (the ones BENCHMARKS.md shows; the CSV and JSON stay in
 # out/lod/). Build first: cmake --preset release && cmake --build --preset release.
 #
-#   bash tests/bench/lod_report.sh            # the full report (about 65 minutes on 2 cores;
+#   bash tests/bench/lod_report.sh            # the full report (about 70 minutes on 2 cores;
 #                                             # markdown tables in out/lod/tables.md)
 #   bash tests/bench/lod_report.sh --smoke D  # a tiny map and few frames into D, then checks
 #                                             # that every file is there and not empty
@@ -51,13 +51,9 @@ else
     [ -n "$charts_only" ] || "$bench" --maps default,srtm_n44w072 --flights cruise,battle \
         --methods split_merge,split_only,chunked --taus 0.25,0.5,1 --caps 60000 \
         "${common[@]}" --out-dir "$out/cap" | tee -a "$out/lod_bench.log"
-    # geomorphing: the flights where pops would show, split/merge's runs are the main pass's
-    [ -n "$charts_only" ] || "$bench" --maps default,srtm_n44w072 --flights cruise,low,whip,battle \
-        --methods split_merge_morph --taus 0.5,1,2,4 --caps 0 "${common[@]}" \
-        --out-dir "$out/morph" | tee -a "$out/lod_bench.log"
     for f in runs.csv frames.csv; do
         head -n 1 "$out/main/$f" > "$out/$f"
-        for pass in main dems cap morph; do
+        for pass in main dems cap; do
             if [ -f "$out/$pass/$f" ]; then tail -n +2 "$out/$pass/$f" >> "$out/$f"; fi
         done
     done
@@ -193,10 +189,8 @@ else
     # the battle's frames at tau 1 as each method draws it, and the reference
     mkdir -p "$charts/frames"
     for f in reference split_merge chunked split_merge_morph; do
-        for pass in main morph; do
-            src=$out/$pass/frames/default_battle_$f.png
-            if [ -f "$src" ]; then cp "$src" "$charts/frames/"; fi
-        done
+        src=$out/main/frames/default_battle_$f.png
+        if [ -f "$src" ]; then cp "$src" "$charts/frames/"; fi
     done
     echo "lod_report: charts in $charts/, data in $out/"
 fi

@@ -24,18 +24,8 @@ Terrain craterWorld(int shots) {
     o.width = 201;
     o.height = 161;
     Terrain t = *makeProceduralMap(o);
-    BattleOptions b;
-    const lodlab::BattleZone z = lodlab::battleZone(t);
-    b.zone_x = z.x;
-    b.zone_y = z.y;
-    b.zone_radius = z.radius;
-    BattleGenerator gen(b);
-    for (int i = 0; i < shots; ++i) {
-        const BattleShot s = gen.next(t);
-        if (s.crater)
-            if (auto op = quantizeOp(*s.crater, t.spec()))
-                (void)t.apply(*op);
-    }
+    BattleGenerator gen = lodlab::battleGenerator(t);
+    lodlab::fireShots(gen, t, shots);
     return t;
 }
 

@@ -21,18 +21,8 @@ Terrain smallWorld(int shots, std::int32_t width = 129, std::int32_t height = 12
     o.width = width;
     o.height = height;
     Terrain t = *makeProceduralMap(o);
-    BattleOptions b;
-    const BattleZone z = battleZone(t);
-    b.zone_x = z.x;
-    b.zone_y = z.y;
-    b.zone_radius = z.radius;
-    BattleGenerator gen(b);
-    for (int i = 0; i < shots; ++i) {
-        const BattleShot s = gen.next(t);
-        if (s.crater)
-            if (auto op = quantizeOp(*s.crater, t.spec()))
-                (void)t.apply(*op);
-    }
+    BattleGenerator gen = battleGenerator(t);
+    fireShots(gen, t, shots);
     return t;
 }
 

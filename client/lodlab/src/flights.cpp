@@ -77,6 +77,24 @@ BattleZone battleZone(const Terrain& terrain) {
     return {terrain.spec().extentX() / 2, terrain.spec().extentY() / 2, 40.0};
 }
 
+BattleGenerator battleGenerator(const Terrain& terrain) {
+    const BattleZone zone = battleZone(terrain);
+    BattleOptions o;
+    o.zone_x = zone.x;
+    o.zone_y = zone.y;
+    o.zone_radius = zone.radius;
+    return BattleGenerator(o);
+}
+
+void fireShots(BattleGenerator& generator, Terrain& terrain, int shots) {
+    for (int s = 0; s < shots; ++s) {
+        const BattleShot shot = generator.next(terrain);
+        if (shot.crater)
+            if (auto op = quantizeOp(*shot.crater, terrain.spec()))
+                (void)terrain.apply(*op);
+    }
+}
+
 std::vector<FlightFrame> makeFlight(const Terrain& terrain, const FlightOptions& o) {
     const double ex = terrain.spec().extentX();
     const double ey = terrain.spec().extentY();

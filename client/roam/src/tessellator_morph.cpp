@@ -74,19 +74,14 @@ void Tessellator::morphBelow(
     const MeshVertex centre = vertexAt(c, halves[0], walk.tile);
     const double zc = static_cast<double>(centre.height) * metres_per_fine_;
     if (morph_stamp_[centre.index] != morph_call_) {
-        // the diamond's box holds every triangle that has its centre as a vertex: out of view,
-        // none of them is drawn, and neither is anything below (left as it was)
+        morph_stamp_[centre.index] = morph_call_;
         const Bounds b = bounds(id);
         const Box box = boxOf(diamondAt(c), b);
-        if (box.lo.x > box.hi.x || !walk.view->intersectsFrustum(box))
-            return;
-        morph_stamp_[centre.index] = morph_call_;
-        const double s =
-            walk.inv_band == 0.0
-                ? 1.0
-                : std::clamp(
-                      (walk.view->screenErrorAnyDirection(box, b.delta) - walk.low) * walk.inv_band,
-                      0.0, 1.0);
+        const double priority =
+            box.lo.x > box.hi.x ? 0.0 : walk.view->screenErrorAnyDirection(box, b.delta);
+        const double s = walk.inv_band == 0.0
+                             ? 1.0
+                             : std::clamp((priority - walk.low) * walk.inv_band, 0.0, 1.0);
         walk.drawn[centre.index] = (drawn[1] + drawn[2]) * 0.5 + s * (zc - (z[1] + z[2]) * 0.5);
     }
     const double dc = walk.drawn[centre.index];

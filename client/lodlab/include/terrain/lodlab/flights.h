@@ -15,6 +15,7 @@
 //             caller fires them with the battle generator: BattleFrame::shots per frame, after
 //             pre_shots before frame 0)
 
+#include <terrain/battle.h>
 #include <terrain/roam/camera.h>
 #include <terrain/terrain.h>
 
@@ -58,6 +59,10 @@ struct BattleZone {
     double radius = 40.0;
 };
 BattleZone battleZone(const Terrain& terrain);
+/// The battle generator aimed at battleZone(terrain): the battle flight's shots.
+BattleGenerator battleGenerator(const Terrain& terrain);
+/// Fires `shots` of `generator` at `terrain`, applying every crater it makes.
+void fireShots(BattleGenerator& generator, Terrain& terrain, int shots);
 
 /// The frames of a flight over `terrain` as it is now (the ground it follows is this one's).
 std::vector<FlightFrame> makeFlight(const Terrain& terrain, const FlightOptions& options);

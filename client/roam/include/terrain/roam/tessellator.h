@@ -198,9 +198,8 @@ class Tessellator {
     /// own centre offset, and D's delta holds its offset plus its children's delta. Where the
     /// coarsest D with s_D < 1 exists, the error at p is within its delta, i.e. under its
     /// P < full_pixels; where none does, within the leaf's delta, under threshold(). The same
-    /// arithmetic on the same vertices in every tile: no cracks. Out of the frustum nothing is
-    /// drawn, and nothing is written. Costs a walk of the tile's split diamonds in view, one
-    /// priority each: O(mesh) per frame, not O(change) as split/merge.
+    /// arithmetic on the same vertices in every tile: no cracks. Costs a walk of the tile's
+    /// split diamonds, one priority each: O(mesh) per frame, not O(change) as split/merge.
     void morphedHeights(
         std::int32_t tile, const ViewMetric& view, double full_pixels, std::span<double> out) const;
 
