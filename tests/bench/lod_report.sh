@@ -5,7 +5,7 @@
 # charts with gnuplot into docs/lod/ (the ones BENCHMARKS.md shows; the CSV and JSON stay in
 # out/lod/). Build first: cmake --preset release && cmake --build --preset release.
 #
-#   bash tests/bench/lod_report.sh            # the full report (about 70 minutes on 2 cores;
+#   bash tests/bench/lod_report.sh            # the full report (about 60 minutes on 2 cores;
 #                                             # markdown tables in out/lod/tables.md)
 #   bash tests/bench/lod_report.sh --smoke D  # a tiny map and few frames into D, then checks
 #                                             # that every file is there and not empty
