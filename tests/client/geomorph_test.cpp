@@ -55,12 +55,14 @@ Drawn drawnMesh(const Tessellator& tess, const Camera& camera, double full_pixel
     for (std::int32_t tile = 0; tile < tess.tileCount(); ++tile) {
         if (!tess.tileVisible(tile))
             continue;
-        heights.resize(static_cast<std::size_t>(tess.tileVertexCount(tile)));
+        // NaN where the walk writes nothing: a vertex of the mesh must not be one of them
+        heights.assign(static_cast<std::size_t>(tess.tileVertexCount(tile)), std::nan(""));
         tess.morphedHeights(tile, view, full_pixels, heights);
         const auto indices = tess.tileMesh(tile).indices();
         for (const std::uint32_t i : indices) {
             const TileVertex v = tess.tileVertex(tile, i);
             const double z = heights[i];
+            EXPECT_FALSE(std::isnan(z)) << "a vertex of the mesh left unwritten";
             const auto [at, fresh] = d.heights.emplace(Key{v.position.x, v.position.y}, z);
             EXPECT_EQ(at->second, z) << "two copies of (" << v.position.x << ", " << v.position.y
                                      << ") drawn at different heights: a crack";
@@ -103,6 +105,7 @@ TEST(Geomorph, TheDrawnSurfaceIsWithinTauAtEveryFrameOfEveryFlight) {
     constexpr double kTau = 1.0;
     constexpr double kFraction = 0.5;
     std::int64_t sliding = 0;
+    int checked = 0;
     for (const lodlab::FlightKind kind : {lodlab::FlightKind::kLow, lodlab::FlightKind::kBattle}) {
         TessellatorOptions o;
         o.tau_pixels = kFraction * kTau;
@@ -119,12 +122,14 @@ TEST(Geomorph, TheDrawnSurfaceIsWithinTauAtEveryFrameOfEveryFlight) {
             const lodlab::MeshError e =
                 lodlab::measureMeshError(d.triangles, t, frames[i].camera, so);
             if (!s.budget_exhausted) {
+                ++checked;
                 EXPECT_LE(e.max_pixels, std::max(kTau, s.error_bound_pixels / kFraction) + 1e-6)
                     << lodlab::toString(kind) << " frame " << i;
             }
         }
     }
     EXPECT_GT(sliding, 100) << "the flights must catch vertices mid-slide";
+    EXPECT_GE(checked, 8) << "most measured frames must have kept up with their work";
 }
 
 TEST(Geomorph, ASplitAtTheThresholdOrAMergeBelowItMovesNothingDrawn) {

@@ -244,8 +244,8 @@ TEST(OsmesaRender, RoamAtOnePixelLooksLikeTheFullResolutionMesh) {
     EXPECT_LT(roam_triangles * 4, full_triangles); // and it needed far fewer triangles
 }
 
-// Buffers follow the tessellation: a still camera uploads nothing, a crater uploads the tiles
-// it changed, and the renderer sends exactly the bytes the tiles' dirty pages hold.
+// Geomorphing draws what slides, within tau of the full mesh, sends only vertices that moved,
+// and turned off draws the plain mesh again.
 TEST(OsmesaRender, GeomorphDrawsTheSlidingHeightsWithinTauAndSendsOnlyWhatMoved) {
     Terrain t = testing::makeHills(4, 257, 257, 1.0);
     for (int k = 0; k < 12; ++k)
@@ -277,8 +277,16 @@ TEST(OsmesaRender, GeomorphDrawsTheSlidingHeightsWithinTauAndSendsOnlyWhatMoved)
     (void)morph.frame(closer);
     EXPECT_GT(morph.morphed.vertex_bytes, 0u);
     EXPECT_LT(morph.morphed.vertex_bytes, morph.renderer->shadowBytes() / 2);
+    // turned off: the true heights come back, the same picture as the plain renderer's
+    morph.renderer->setGeomorph(0.0);
+    (void)plain.frame(closer);
+    const io::RgbImage off = morph.frame(closer);
+    EXPECT_GT(morph.morphed.vertex_bytes, 0u) << "the true heights are sent back";
+    EXPECT_EQ(countDiffering(off, plain.frame(closer), 0).differing, 0);
 }
 
+// Buffers follow the tessellation: a still camera uploads nothing, a crater uploads the tiles
+// it changed, and the renderer sends exactly the bytes the tiles' dirty pages hold.
 TEST(OsmesaRender, UploadsOnlyWhatChanged) {
     Terrain t = testing::makeHills(7, 257, 257, 1.0);
     Scene scene(t, 1.0);

@@ -143,6 +143,7 @@ void TerrainRenderer::evict(TileBuffers& tb, UploadStats& stats) {
     gl_.BindVertexArray(0);
     std::vector<GpuVertex>().swap(tb.shadow);
     std::vector<float>().swap(tb.drawn_z);
+    tb.morphed = false;
     tb.has_vertices = false;
     tb.has_indices = false;
     tb.vertex_capacity = 0;
@@ -383,22 +384,33 @@ std::uint64_t TerrainRenderer::sendRuns(std::uint32_t count, Differs&& differs) 
 }
 
 UploadStats TerrainRenderer::morph(const roam::Tessellator& tess, const roam::Camera& camera) {
+    // off, it still restores the true heights of tiles it moved while on
     UploadStats stats;
-    if (!(geomorph_ > 0.0) || !have_spec_)
+    if (!have_spec_)
         return stats;
     context_.makeCurrent();
+    const bool on = geomorph_ > 0.0;
     const roam::ViewMetric view(camera);
-    const double full = tess.threshold() / geomorph_;
+    const double full = on ? tess.threshold() / geomorph_ : 0.0;
     for (std::int32_t t = 0; t < tess.tileCount(); ++t) {
         TileBuffers& tb = tiles_[static_cast<std::size_t>(t)];
-        if (!tess.tileVisible(t) || !tb.has_vertices)
-            continue;
-        const auto count = static_cast<std::uint32_t>(tess.tileVertexCount(t));
-        if (count != tb.shadow.size())
+        if (!tb.has_vertices || tb.vertex_version != tess.tileVertexVersion(t) ||
+            tb.shadow.size() != static_cast<std::size_t>(tess.tileVertexCount(t)))
             continue; // not synced with this mesh
-        // vertices the mesh does not use keep what the buffer has
-        scratch_heights_.assign(tb.drawn_z.begin(), tb.drawn_z.end());
-        tess.morphedHeights(t, view, full, scratch_heights_);
+        const auto count = static_cast<std::uint32_t>(tb.shadow.size());
+        if (on && tess.tileVisible(t)) {
+            // vertices the mesh does not use keep what the buffer has
+            scratch_heights_.assign(tb.drawn_z.begin(), tb.drawn_z.end());
+            tess.morphedHeights(t, view, full, scratch_heights_);
+        } else if (!on && tb.morphed) {
+            // turned off: back to the true heights
+            scratch_heights_.resize(count);
+            for (std::uint32_t i = 0; i < count; ++i)
+                scratch_heights_[i] = tb.shadow[i].z;
+        } else {
+            continue;
+        }
+        tb.morphed = on;
         scratch_vertices_.assign(tb.shadow.begin(), tb.shadow.end());
         scratch_send_.resize(count);
         bool any = false;

@@ -90,7 +90,8 @@ class TerrainRenderer {
     void setGeomorph(double fraction) { geomorph_ = fraction; }
     double geomorph() const { return geomorph_; }
     /// After sync(), before draw(), with geomorphing on: sends the visible tiles' vertices
-    /// whose drawn height moved for `camera` (runs of them, as sync() does). Off: nothing.
+    /// whose drawn height moved for `camera` (runs of them, as sync() does). Off: sends the
+    /// true heights back to tiles it moved while on, then nothing.
     UploadStats morph(const roam::Tessellator& tess, const roam::Camera& camera);
     /// Clears to the sky and draws the visible tiles as seen by `camera` into the whole
     /// framebuffer.
@@ -125,6 +126,7 @@ class TerrainRenderer {
         std::vector<GpuVertex> shadow;
         /// The heights in the buffer, which geomorphing moves away from the shadow's.
         std::vector<float> drawn_z;
+        bool morphed = false; ///< morph() wrote drawn heights (restored when turned off)
         std::uint32_t index_capacity_slots = 0;
         bool has_indices = false;
         std::uint32_t triangles = 0;
