@@ -41,6 +41,7 @@ int main(int argc, char** argv) {
     std::string connect = "127.0.0.1:7777";
     std::string report_path;
     std::string backend_name = "osmesa";
+    std::string upload_path = "auto";
     std::vector<std::string> tables;
     // the map the bot ships with: terrain-server's --seed/--size/--tolerance or --dem
     std::string map_dem;
@@ -87,6 +88,18 @@ int main(int argc, char** argv) {
         a->add_flag("--render", config.render, "render every frame offscreen");
         a->add_option("--gl", backend_name, "offscreen backend: osmesa | egl")
             ->check(CLI::IsMember({"osmesa", "egl"}));
+        a->add_flag(
+            "--gl-debug", config.gl_debug,
+            "a debug GL context: every KHR_debug message to stderr, errors in the report");
+        a->add_flag(
+            "--validate-buffers", config.validate_buffers,
+            "read the GPU buffers back after every sync and compare them with the mesh (slow)");
+        a->add_option("--upload-path", upload_path, "auto | persistent | map-range")
+            ->check(CLI::IsMember({"auto", "persistent", "map-range"}));
+        a->add_option(
+             "--upload-budget", config.upload_budget_bytes,
+             "bytes of mesh changes a frame may upload; the rest waits (default 2 MiB, 0: none)")
+            ->check(CLI::NonNegativeNumber);
         a->add_option(
             "--png-dir", config.png_dir, "write before.png and after.png here (implies --render)");
         a->add_option("--png-every", config.png_every, "also write every Nth frame")
@@ -135,6 +148,7 @@ int main(int argc, char** argv) {
     if (config.max_triangles == 0)
         config.max_triangles = std::numeric_limits<std::int64_t>::max();
     config.backend = *render::parseOffscreenBackend(backend_name); // checked by CLI11
+    config.upload_path = *render::parseUploadPath(upload_path);    // checked by CLI11
     if (!config.png_dir.empty())
         config.render = true;
     if (map_procedural && !map_dem.empty()) {

@@ -1429,6 +1429,56 @@ TEST(RoamMesh, BudgetSpreadsWorkOverFramesAndConverges) {
     EXPECT_EQ(leaves(tess), leaves(reference));
 }
 
+// The upload budget holds a frame's mesh changes to what a renderer may send in one frame: a
+// swoop from high to low spreads its index pages and grain vertices over frames, each within the
+// budget (one split's pages past it at most), the mesh conforming and the error bound honest
+// (budget_exhausted while it waits), and it ends where the unbudgeted mesh is.
+TEST(RoamMesh, UploadBudgetSpreadsWhatARendererSendsOverFrames) {
+    const Terrain t = cratered(6, 30);
+    TessellatorOptions o;
+    o.work_budget = 1 << 30;
+    o.upload_budget_bytes = 64 << 10;
+    Tessellator tess(t, o);
+    TessellatorOptions so;
+    so.mode = TessellationMode::kSplitOnly;
+    Tessellator reference(t, so);
+    Camera c = overview(t, 300.0);
+    tess.update(c); // first frame rebuilds top-down, unbudgeted
+    for (std::int32_t tile = 0; tile < tess.tileCount(); ++tile)
+        tess.tileMesh(tile).takeChanges(); // what a renderer does after its upload
+    c = overview(t, 25.0);
+    reference.update(c);
+    int frames = 0;
+    int bound = 0;
+    std::int64_t most = 0;
+    while (frames < 400) {
+        const auto stats = tess.update(c);
+        ++frames;
+        // the pages a renderer would send, counted the renderer's way
+        std::int64_t pages = 0;
+        for (std::int32_t tile = 0; tile < tess.tileCount(); ++tile) {
+            pages += static_cast<std::int64_t>(tess.tileMesh(tile).dirtyPages().size());
+            tess.tileMesh(tile).takeChanges();
+        }
+        EXPECT_LE(pages * 384, stats.upload_bytes) << "frame " << frames;
+        most = std::max(most, stats.upload_bytes);
+        if (stats.upload_budget_bound) {
+            ++bound;
+            EXPECT_TRUE(stats.budget_exhausted);
+        }
+        // a split forces its ancestors' splits: a chain finishes past the budget
+        EXPECT_LE(stats.upload_bytes, o.upload_budget_bytes + 8 * 1024) << "frame " << frames;
+        expectConforming(tess, t.spec());
+        if (!stats.budget_exhausted && stats.splits + stats.merges == 0)
+            break;
+    }
+    std::printf(
+        "upload budget 64 KiB: %d frames, %d bound by it, at most %lld bytes in one\n", frames,
+        bound, static_cast<long long>(most));
+    EXPECT_GT(bound, 2);
+    EXPECT_EQ(leaves(tess), leaves(reference));
+}
+
 TEST(RoamMesh, ATeleportRebuildsTopDown) {
     const Terrain t = makeHills(12, 400, 400);
     TessellatorOptions o;

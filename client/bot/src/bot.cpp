@@ -3,10 +3,14 @@
 #include <terrain/client/frame_budget.h>
 #include <terrain/client/replica.h>
 #include <terrain/client/tessellation_feed.h>
+#include <terrain/render/gpu_timer.h>
+#include <terrain/render/sky_holes.h>
 #include <terrain/render/terrain_renderer.h>
 #include <terrain/roam/tessellator.h>
 #include <terrain/surface_query.h>
 
+#include <algorithm>
+#include <array>
 #include <asio.hpp>
 #include <chrono>
 #include <fstream>
@@ -17,6 +21,10 @@ namespace terrain::bot {
 
 namespace {
 using Clock = std::chrono::steady_clock;
+
+double msBetween(Clock::time_point a, Clock::time_point b) {
+    return std::chrono::duration<double, std::milli>(b - a).count();
+}
 
 double msSince(Clock::time_point t0) {
     return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
@@ -44,10 +52,11 @@ template <typename Done> bool pollUntil(asio::io_context& io, double timeout_sec
     return true;
 }
 
-/// The offscreen half of a bot: context and renderer.
+/// The offscreen half of a bot: context, renderer and GPU timer.
 struct Renderer {
     std::unique_ptr<render::GlContext> context;
     std::unique_ptr<render::TerrainRenderer> terrain;
+    std::unique_ptr<render::GpuTimer> timer;
 };
 } // namespace
 
@@ -104,6 +113,8 @@ Result<BotReport> runBot(const BotConfig& config) {
     roam::TessellatorOptions to;
     to.tau_pixels = config.tau_pixels;
     to.max_triangles = config.max_triangles;
+    if (config.upload_budget_bytes >= 0)
+        to.upload_budget_bytes = config.upload_budget_bytes;
     roam::Tessellator tess(replica.terrain(), to);
     client::FrameBudgetOptions bo;
     bo.target_ms = config.frame_ms >= 0.0 ? config.frame_ms
@@ -114,23 +125,33 @@ Result<BotReport> runBot(const BotConfig& config) {
 
     Renderer gpu;
     if (config.render) {
+        render::ContextOptions co;
+        co.debug = config.gl_debug;
         auto context = render::createOffscreenContext(
-            config.backend, script_options.viewport_width, script_options.viewport_height);
+            config.backend, script_options.viewport_width, script_options.viewport_height, co);
         if (!context)
             return context.error();
         gpu.context = std::move(*context);
-        auto renderer = render::TerrainRenderer::create(*gpu.context);
+        render::RendererOptions ro;
+        ro.upload = config.upload_path;
+        ro.validate = config.validate_buffers;
+        auto renderer = render::TerrainRenderer::create(*gpu.context, ro);
         if (!renderer)
             return renderer.error();
         gpu.terrain = std::move(*renderer);
+        gpu.timer = std::make_unique<render::GpuTimer>(gpu.context->gl());
         report.renderer = gpu.context->describe();
+        report.upload_path = render::toString(gpu.terrain->uploadPath());
         if (!config.png_dir.empty())
             std::filesystem::create_directories(config.png_dir);
     }
     // a PNG that cannot be written is reported; the run goes on
     const auto writePng = [&](const std::string& file) {
         const std::filesystem::path path = config.png_dir / file;
-        Status s = io::writeRgbPng(path, gpu.context->readPixels());
+        const io::RgbImage image = gpu.context->readPixels();
+        if (file == "after.png")
+            report.after_holes = render::countSkyHoles(image, render::RenderOptions{}.sky).count;
+        Status s = io::writeRgbPng(path, image);
         if (s)
             report.pngs.push_back(path.string());
         else if (report.error.empty())
@@ -139,6 +160,11 @@ Result<BotReport> runBot(const BotConfig& config) {
 
     std::vector<double> tessellate_ms;
     std::vector<double> render_ms;
+    std::vector<double> sync_ms;
+    std::vector<double> draw_ms;
+    std::vector<double> present_ms;
+    std::vector<double> gpu_ms;
+    std::array<double, render::GpuTimer::kQueries> gpu_done{};
     std::vector<double> frame_ms;
     std::vector<double> triangles;
     std::vector<double> visible;
@@ -167,14 +193,28 @@ Result<BotReport> runBot(const BotConfig& config) {
         visible.push_back(static_cast<double>(fs.visible_triangles));
         if (gpu.terrain) {
             const Clock::time_point t2 = Clock::now();
+            gpu.timer->begin();
             const render::UploadStats up = gpu.terrain->sync(tess, replica.terrain());
+            const Clock::time_point t3 = Clock::now();
             gpu.terrain->draw(tess, camera, render::RenderOptions{});
+            gpu.timer->end();
+            const Clock::time_point t4 = Clock::now();
             gpu.context->present();
             render_ms.push_back(msSince(t2));
+            sync_ms.push_back(msBetween(t2, t3));
+            draw_ms.push_back(msBetween(t3, t4));
+            present_ms.push_back(msSince(t4));
+            const std::size_t done = gpu.timer->collect(gpu_done);
+            gpu_ms.insert(
+                gpu_ms.end(), gpu_done.begin(),
+                gpu_done.begin() + static_cast<std::ptrdiff_t>(done));
             uploads.push_back(static_cast<double>(up.bytes()));
         }
         frame_ms.push_back(msSince(t0));
-        tess.setMaxTriangles(budget.observe(frame_ms.back(), fs.triangles));
+        // the GPU works behind the CPU: where its time is known, the budget steers on the
+        // larger of the two
+        const double gpu_frame = gpu.timer && gpu.timer->latestMs() ? *gpu.timer->latestMs() : 0.0;
+        tess.setMaxTriangles(budget.observe(std::max(frame_ms.back(), gpu_frame), fs.triangles));
     };
 
     const Clock::time_point run_start = Clock::now();
@@ -264,6 +304,11 @@ Result<BotReport> runBot(const BotConfig& config) {
     report.snapshot_bytes = connection->stats().snapshot_bytes;
     report.tessellate_ms = Spread::of(tessellate_ms);
     report.render_ms = Spread::of(render_ms);
+    report.sync_ms = Spread::of(sync_ms);
+    report.draw_ms = Spread::of(draw_ms);
+    report.present_ms = Spread::of(present_ms);
+    report.gpu_ms = Spread::of(gpu_ms);
+    report.gpu_frames = static_cast<int>(gpu_ms.size());
     report.frame_ms = Spread::of(frame_ms);
     report.triangles = Spread::of(triangles);
     report.visible_triangles = Spread::of(visible);
@@ -274,6 +319,21 @@ Result<BotReport> runBot(const BotConfig& config) {
         report.vertex_bytes = gpu.terrain->totals().vertex_bytes;
         report.index_bytes = gpu.terrain->totals().index_bytes;
         report.upload_bytes = gpu.terrain->totals().bytes();
+        report.gpu_copies = gpu.terrain->ringStats().copies;
+        report.ring_waits = gpu.terrain->ringStats().waits;
+        if (config.validate_buffers) {
+            const render::ValidationReport& v = gpu.terrain->validation();
+            report.buffer_mismatches = static_cast<std::int64_t>(
+                v.vertex_mismatches + v.index_mismatches + v.short_buffers);
+            if (!v.clean() && report.error.empty())
+                report.error = "buffers differ from the mesh: " + v.first_problem;
+        }
+        if (const render::GlDebugLog* log = gpu.context->debugLog()) {
+            report.gl_errors = static_cast<std::int64_t>(log->errors());
+            report.gl_messages = static_cast<std::int64_t>(log->messages());
+            if (log->errors() > 0 && report.error.empty())
+                report.error = "the GL reported " + std::to_string(log->errors()) + " errors";
+        }
     }
     report.bytes_in = connection->stats().bytes_in;
     report.op_bytes_in = connection->stats().op_bytes_in;

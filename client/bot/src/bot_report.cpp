@@ -65,6 +65,11 @@ std::string toJson(const BotReport& r) {
           {"missed", r.craters_missed}}},
         {"tessellate_ms", spreadJson(r.tessellate_ms)},
         {"render_ms", spreadJson(r.render_ms)},
+        {"sync_ms", spreadJson(r.sync_ms)},
+        {"draw_ms", spreadJson(r.draw_ms)},
+        {"present_ms", spreadJson(r.present_ms)},
+        {"gpu_ms", spreadJson(r.gpu_ms)},
+        {"gpu_frames", r.gpu_frames},
         {"frame_ms", spreadJson(r.frame_ms)},
         {"triangles", spreadJson(r.triangles)},
         {"visible_triangles", spreadJson(r.visible_triangles)},
@@ -74,7 +79,14 @@ std::string toJson(const BotReport& r) {
          {{"bytes", r.upload_bytes},
           {"vertex_bytes", r.vertex_bytes},
           {"index_bytes", r.index_bytes},
-          {"per_frame", spreadJson(r.upload_bytes_per_frame)}}},
+          {"per_frame", spreadJson(r.upload_bytes_per_frame)},
+          {"path", r.upload_path},
+          {"gpu_copies", r.gpu_copies},
+          {"ring_waits", r.ring_waits}}},
+        {"after_holes", r.after_holes},
+        {"gl_errors", r.gl_errors},
+        {"gl_messages", r.gl_messages},
+        {"buffer_mismatches", r.buffer_mismatches},
         {"network",
          {{"bytes_in", r.bytes_in}, {"op_bytes_in", r.op_bytes_in}, {"rtt_ms", r.rtt_ms}}},
         {"renderer", r.renderer},
@@ -137,6 +149,21 @@ Result<BotReport> readReport(const std::filesystem::path& path) {
         r.vertex_bytes = u.at("vertex_bytes").get<std::uint64_t>();
         r.index_bytes = u.at("index_bytes").get<std::uint64_t>();
         r.upload_bytes_per_frame = spreadFrom(u.at("per_frame"));
+        // fields added with the GPU work (2026-12-04); older reports lack them
+        r.upload_path = u.value("path", std::string());
+        r.gpu_copies = u.value("gpu_copies", std::uint64_t{0});
+        r.ring_waits = u.value("ring_waits", std::uint64_t{0});
+        if (j.contains("sync_ms")) {
+            r.sync_ms = spreadFrom(j.at("sync_ms"));
+            r.draw_ms = spreadFrom(j.at("draw_ms"));
+            r.present_ms = spreadFrom(j.at("present_ms"));
+            r.gpu_ms = spreadFrom(j.at("gpu_ms"));
+            r.gpu_frames = j.at("gpu_frames").get<int>();
+        }
+        r.after_holes = j.value("after_holes", std::int64_t{-1});
+        r.gl_errors = j.value("gl_errors", std::int64_t{-1});
+        r.gl_messages = j.value("gl_messages", std::int64_t{-1});
+        r.buffer_mismatches = j.value("buffer_mismatches", std::int64_t{-1});
         const json& n = j.at("network");
         r.bytes_in = n.at("bytes_in").get<std::uint64_t>();
         r.op_bytes_in = n.at("op_bytes_in").get<std::uint64_t>();

@@ -16,7 +16,8 @@ std::string eglFailure(const char* step) {
 }
 } // namespace
 
-Result<std::unique_ptr<EglContext>> EglContext::create(int width, int height) {
+Result<std::unique_ptr<EglContext>>
+EglContext::create(int width, int height, const ContextOptions& options) {
     if (width < 1 || height < 1 || width > 8192 || height > 8192)
         return makeError(
             ErrorCode::kOutOfRange, "offscreen size " + std::to_string(width) + " x " +
@@ -59,6 +60,8 @@ Result<std::unique_ptr<EglContext>> EglContext::create(int width, int height) {
         3,
         EGL_CONTEXT_OPENGL_PROFILE_MASK,
         EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
+        EGL_CONTEXT_OPENGL_DEBUG,
+        options.debug ? EGL_TRUE : EGL_FALSE,
         EGL_NONE};
     c->context_ = eglCreateContext(display, config, EGL_NO_CONTEXT, context_attributes);
     if (c->context_ == EGL_NO_CONTEXT)
@@ -70,6 +73,7 @@ Result<std::unique_ptr<EglContext>> EglContext::create(int width, int height) {
         [](const char* name, void*) { return loaderPointer(eglGetProcAddress(name)); }, nullptr);
     if (!loaded)
         return loaded.error();
+    c->attachDebugLog(options);
 
     // no window, so no default framebuffer: colour and depth renderbuffers stand in for it and
     // stay bound
@@ -102,6 +106,7 @@ EglContext::~EglContext() {
     forgetCurrent();
     if (context_ != nullptr) {
         if (framebuffer_ != 0 && bindToThread()) {
+            pacer_.release(gl_);
             gl_.DeleteFramebuffers(1, &framebuffer_);
             gl_.DeleteRenderbuffers(1, &colour_);
             gl_.DeleteRenderbuffers(1, &depth_);

@@ -1,5 +1,6 @@
 #include <terrain/render/gl_context.h>
 
+#include <cstdio>
 #include <cstring>
 
 namespace terrain::render {
@@ -26,6 +27,18 @@ void GlContext::makeCurrent() const {
 void GlContext::forgetCurrent() const {
     if (current_context == this)
         current_context = nullptr;
+}
+
+bool GlContext::attachDebugLog(const ContextOptions& options) {
+    if (!options.debug)
+        return true;
+    auto log = std::make_unique<GlDebugLog>();
+    if (!log->attach(gl())) {
+        std::fprintf(stderr, "GL debug output unavailable: the context has no KHR_debug\n");
+        return false;
+    }
+    debug_log_ = std::move(log);
+    return true;
 }
 
 std::string GlContext::describe() const {

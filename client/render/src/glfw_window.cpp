@@ -15,8 +15,8 @@ std::string lastGlfwError() {
 }
 } // namespace
 
-Result<std::unique_ptr<GlfwWindow>>
-GlfwWindow::create(int width, int height, const std::string& title, bool vsync) {
+Result<std::unique_ptr<GlfwWindow>> GlfwWindow::create(
+    int width, int height, const std::string& title, bool vsync, const ContextOptions& options) {
     if (width < 1 || height < 1 || width > 16384 || height > 16384)
         return makeError(
             ErrorCode::kOutOfRange, "window size " + std::to_string(width) + " x " +
@@ -34,6 +34,7 @@ GlfwWindow::create(int width, int height, const std::string& title, bool vsync) 
     glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
     glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
     glfwWindowHint(GLFW_DEPTH_BITS, 24);
+    glfwWindowHint(GLFW_OPENGL_DEBUG_CONTEXT, options.debug ? GLFW_TRUE : GLFW_FALSE);
     GLFWwindow* window = glfwCreateWindow(width, height, title.c_str(), nullptr, nullptr);
     if (window == nullptr) {
         const std::string why = lastGlfwError();
@@ -48,6 +49,7 @@ GlfwWindow::create(int width, int height, const std::string& title, bool vsync) 
         [](const char* name, void*) { return loaderPointer(glfwGetProcAddress(name)); }, nullptr);
     if (!loaded)
         return loaded.error();
+    w->attachDebugLog(options);
     return w;
 }
 

@@ -50,16 +50,15 @@ io::RgbImage MeshRenderer::render(
     context_.makeCurrent();
     const GlApi& gl = gl_;
     const WorldSpec& spec = terrain.spec();
-    // positions relative to a corner near the eye (floats keep millimetres), z absolute
-    const double origin_x = std::floor(camera.eye.x / 1024.0) * 1024.0;
-    const double origin_y = std::floor(camera.eye.y / 1024.0) * 1024.0;
+    // positions in lattice units from the map's corner, as the program takes them; z metres
+    const double per_lattice = TerrainProgram::metresPerLattice(spec);
     scratch_.resize(triangles.size() * 6);
     for (std::size_t i = 0; i < triangles.size(); ++i) {
         const glm::dvec3& p = triangles[i];
         const glm::dvec3 n = surfaceNormal(terrain, p.x, p.y);
         float* v = scratch_.data() + 6 * i;
-        v[0] = static_cast<float>(p.x - origin_x);
-        v[1] = static_cast<float>(p.y - origin_y);
+        v[0] = static_cast<float>(p.x / per_lattice);
+        v[1] = static_cast<float>(p.y / per_lattice);
         v[2] = static_cast<float>(p.z);
         v[3] = static_cast<float>(n.x);
         v[4] = static_cast<float>(n.y);
@@ -69,7 +68,6 @@ io::RgbImage MeshRenderer::render(
     gl.ClearColor(options.sky.x, options.sky.y, options.sky.z, 1.0f);
     gl.Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     program_->beginFrame(gl, camera, spec, height_lo_, height_hi_, options);
-    program_->setOrigin(gl, camera, spec, origin_x, origin_y);
     gl.BindVertexArray(vao_);
     gl.BindBuffer(GL_ARRAY_BUFFER, buffer_);
     gl.BufferData(

@@ -17,15 +17,15 @@ const char* toString(OffscreenBackend backend) {
     return backend == OffscreenBackend::kOsmesa ? "osmesa" : "egl";
 }
 
-Result<std::unique_ptr<GlContext>>
-createOffscreenContext(OffscreenBackend backend, int width, int height) {
+Result<std::unique_ptr<GlContext>> createOffscreenContext(
+    OffscreenBackend backend, int width, int height, const ContextOptions& options) {
     if (backend == OffscreenBackend::kOsmesa) {
-        auto c = OsmesaContext::create(width, height);
+        auto c = OsmesaContext::create(width, height, options);
         if (!c)
             return c.error();
         return std::unique_ptr<GlContext>(std::move(*c));
     }
-    auto c = EglContext::create(width, height);
+    auto c = EglContext::create(width, height, options);
     if (!c)
         return c.error();
     return std::unique_ptr<GlContext>(std::move(*c));

@@ -42,7 +42,8 @@ struct OsmesaContext::Library {
     // never dlclose'd: llvmpipe's threads and exit handlers outlive the last context
 };
 
-Result<std::unique_ptr<OsmesaContext>> OsmesaContext::create(int width, int height) {
+Result<std::unique_ptr<OsmesaContext>>
+OsmesaContext::create(int width, int height, const ContextOptions& options) {
     if (width < 1 || height < 1 || width > 8192 || height > 8192)
         return makeError(
             ErrorCode::kOutOfRange, "offscreen size " + std::to_string(width) + " x " +
@@ -106,6 +107,8 @@ Result<std::unique_ptr<OsmesaContext>> OsmesaContext::create(int width, int heig
         c->library_.get());
     if (!loaded)
         return loaded.error();
+    // OSMesa has no debug-context attribute; Mesa sends KHR_debug output once it is enabled
+    c->attachDebugLog(options);
     return c;
 }
 
@@ -137,8 +140,11 @@ io::RgbImage OsmesaContext::readPixels() const {
 
 OsmesaContext::~OsmesaContext() {
     forgetCurrent();
-    if (context_ != nullptr)
+    if (context_ != nullptr) {
+        if (bindToThread())
+            pacer_.release(gl_);
         library_->destroy(context_);
+    }
 }
 
 } // namespace terrain::render

@@ -21,7 +21,9 @@ Result<TerrainProgram> TerrainProgram::build(const GlApi& gl) {
     TerrainProgram p;
     p.program_ = *program;
     p.u_view_projection_ = gl.GetUniformLocation(p.program_, "u_view_projection");
-    p.u_tile_from_eye_ = gl.GetUniformLocation(p.program_, "u_tile_from_eye");
+    p.u_eye_whole_ = gl.GetUniformLocation(p.program_, "u_eye_whole");
+    p.u_eye_rest_ = gl.GetUniformLocation(p.program_, "u_eye_rest");
+    p.u_metres_per_lattice_ = gl.GetUniformLocation(p.program_, "u_metres_per_lattice");
     p.u_clip_ = gl.GetUniformLocation(p.program_, "u_clip");
     p.u_sun_ = gl.GetUniformLocation(p.program_, "u_sun");
     p.u_sky_ = gl.GetUniformLocation(p.program_, "u_sky");
@@ -72,27 +74,31 @@ void TerrainProgram::beginFrame(
     gl.Uniform1f(u_haze_, options.haze_metres > 0.0f ? 1.0f / options.haze_metres : 0.0f);
     gl.Uniform2f(u_height_range_, height_lo, height_hi);
     gl.Uniform4f(u_line_colour_, 0.0f, 0.0f, 0.0f, 0.0f);
+
+    // the eye in lattice units, split so that positions minus its whole part are exact
+    const double per_lattice = metresPerLattice(spec);
+    const double ex = camera.eye.x / per_lattice;
+    const double ey = camera.eye.y / per_lattice;
+    const double wx = std::floor(ex);
+    const double wy = std::floor(ey);
+    gl.Uniform2f(u_eye_whole_, static_cast<float>(wx), static_cast<float>(wy));
+    gl.Uniform3f(
+        u_eye_rest_, static_cast<float>(ex - wx), static_cast<float>(ey - wy),
+        static_cast<float>(camera.eye.z));
+    gl.Uniform1f(u_metres_per_lattice_, static_cast<float>(per_lattice));
+    gl.Uniform2f(
+        u_clip_, static_cast<float>(spec.cellsX() * roam::kLatticePerCell),
+        static_cast<float>(spec.cellsY() * roam::kLatticePerCell));
+}
+
+double TerrainProgram::metresPerLattice(const WorldSpec& spec) {
+    return spec.spacingMetres() / roam::kLatticePerCell;
 }
 
 void TerrainProgram::endFrame(const GlApi& gl) const {
     for (GLenum plane = 0; plane < 4; ++plane)
         gl.Disable(GL_CLIP_DISTANCE0 + plane);
     gl.UseProgram(0);
-}
-
-void TerrainProgram::setOrigin(
-    const GlApi& gl,
-    const roam::Camera& camera,
-    const WorldSpec& spec,
-    double origin_x,
-    double origin_y) const {
-    gl.Uniform3f(
-        u_tile_from_eye_, static_cast<float>(origin_x - camera.eye.x),
-        static_cast<float>(origin_y - camera.eye.y), static_cast<float>(-camera.eye.z));
-    gl.Uniform4f(
-        u_clip_, static_cast<float>(-origin_x), static_cast<float>(-origin_y),
-        static_cast<float>(spec.extentX() - origin_x),
-        static_cast<float>(spec.extentY() - origin_y));
 }
 
 std::pair<float, float> TerrainProgram::heightRange(const Terrain& terrain) {

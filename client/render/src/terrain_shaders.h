@@ -7,22 +7,29 @@
 namespace terrain::render {
 
 inline constexpr const char* kTerrainVertexShader = R"(#version 330 core
-layout(location = 0) in vec3 a_position; // metres: x, y from the tile's corner, z absolute
+layout(location = 0) in vec3 a_position; // x, y: lattice units from the map's corner; z: metres
 layout(location = 1) in vec3 a_normal;
 uniform mat4 u_view_projection;          // rotation and projection, eye at the origin
-uniform vec3 u_tile_from_eye;            // tile corner (z = 0) minus eye, metres
-uniform vec4 u_clip;                     // the map's extent in tile coordinates: x0 y0 x1 y1
+uniform vec2 u_eye_whole;                // the eye in lattice units, whole part (exact)
+uniform vec3 u_eye_rest;                 // the rest of it (lattice units), and its height (metres)
+uniform float u_metres_per_lattice;
+uniform vec2 u_clip;                     // the map's far corner, lattice units (the near one: 0, 0)
 out vec3 v_normal;
 out vec3 v_from_eye;
 out float v_height;
+// the same vertex from any draw reaches the rasterizer as the same bits: no per-draw uniform
+// below, and no recomputation that may round otherwise
+invariant gl_Position;
 void main() {
-    vec3 p = a_position + u_tile_from_eye;
+    // whole numbers minus a whole number: exact; the fraction then rounds once
+    vec2 lattice = (a_position.xy - u_eye_whole) - u_eye_rest.xy;
+    vec3 p = vec3(lattice * u_metres_per_lattice, a_position.z - u_eye_rest.z);
     gl_Position = u_view_projection * vec4(p, 1.0);
     // triangles reaching into the padding beyond the map are cut at its edge
-    gl_ClipDistance[0] = a_position.x - u_clip.x;
-    gl_ClipDistance[1] = u_clip.z - a_position.x;
-    gl_ClipDistance[2] = a_position.y - u_clip.y;
-    gl_ClipDistance[3] = u_clip.w - a_position.y;
+    gl_ClipDistance[0] = a_position.x;
+    gl_ClipDistance[1] = u_clip.x - a_position.x;
+    gl_ClipDistance[2] = a_position.y;
+    gl_ClipDistance[3] = u_clip.y - a_position.y;
     v_normal = a_normal;
     v_from_eye = p;
     v_height = a_position.z;

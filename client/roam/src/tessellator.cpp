@@ -304,7 +304,7 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
         for (const Action& a : merges_) {
             if ((state(a.id) & kMergeCandidate) == 0 || !active(a.id))
                 continue;
-            if (workSpent(stats) >= options_.work_budget) {
+            if (budgetSpent(stats)) {
                 deferred_.push_back(a.id);
                 continue;
             }
@@ -317,7 +317,7 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
         for (const Action& a : splits_) {
             if ((state(a.id) & kSplitCandidate) == 0 || active(a.id))
                 continue;
-            if (workSpent(stats) >= options_.work_budget) {
+            if (budgetSpent(stats)) {
                 deferred_.push_back(a.id);
                 unmet_ = std::max(unmet_, a.priority);
                 continue;
@@ -329,7 +329,7 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
             }
         }
         splits_.clear();
-        if (workSpent(stats) >= options_.work_budget) {
+        if (budgetSpent(stats)) {
             stats.budget_exhausted = true;
             deferred_.insert(deferred_.end(), due_.begin(), due_.end());
             due_.clear();
@@ -339,6 +339,16 @@ void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
     for (const DiamondId id : deferred_)
         if ((state(id) & (kSplitCandidate | kMergeCandidate)) != 0)
             heap_.push(id, travel_);
+}
+
+bool Tessellator::budgetSpent(FrameStats& stats) const {
+    if (workSpent(stats) >= options_.work_budget)
+        return true;
+    if (options_.upload_budget_bytes > 0 && uploadSpent() >= options_.upload_budget_bytes) {
+        stats.upload_budget_bound = true;
+        return true;
+    }
+    return false;
 }
 
 void Tessellator::finishFrame(const ViewMetric& m, FrameStats& stats) {
@@ -389,6 +399,7 @@ FrameStats Tessellator::update(const Camera& camera) {
     const std::int64_t materialised = materialised_;
     const std::int64_t evicted = evicted_;
     made_at_frame_start_ = materialised_ + grains_materialised_;
+    upload_at_frame_start_ = uploadTotal();
     const double teleport = options_.teleport_metres > 0.0
                                 ? options_.teleport_metres
                                 : 8.0 * kLatticePerTile * metres_per_lattice_;
@@ -434,6 +445,7 @@ FrameStats Tessellator::update(const Camera& camera) {
     stats.stale_blocks = staleBlockCount();
     if (stats.stale_blocks > 0)
         stats.budget_exhausted = true; // their bounds are the old surface's
+    stats.upload_bytes = uploadSpent();
     stats.blocks_materialised = materialised_ - materialised;
     stats.blocks_evicted = evicted_ - evicted;
     return stats;

@@ -376,10 +376,19 @@ void Tessellator::storeHeights(std::int32_t block, unsigned grain_mask) {
         std::int64_t lowest = heights_scratch_[local[0]];
         for (std::size_t v = 1; v < vertices; ++v)
             lowest = std::min(lowest, heights_scratch_[local[v]]);
+        bool moved = grain.base[idx(chunk)] != lowest;
         grain.base[idx(chunk)] = lowest;
-        for (std::size_t v = 0; v < vertices; ++v)
-            grain.heights[idx(chunk) * vertices + v] =
-                static_cast<std::uint32_t>(heights_scratch_[local[v]] - lowest);
+        for (std::size_t v = 0; v < vertices; ++v) {
+            const auto h = static_cast<std::uint32_t>(heights_scratch_[local[v]] - lowest);
+            std::uint32_t& stored = grain.heights[idx(chunk) * vertices + v];
+            moved = moved || stored != h;
+            stored = h;
+        }
+        // the tile's vertex array changed: a renderer that took its version before must look
+        // again (heights freshened after the op's own bump, or by a later bounds pass)
+        if (moved)
+            if (const std::int32_t tile = tileOfCell(blocks_.cellOf(block)); tile >= 0)
+                ++vertex_version_[idx(tile)];
     }
 }
 

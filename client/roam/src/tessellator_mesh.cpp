@@ -106,6 +106,8 @@ void Tessellator::splitTriangles(const Diamond& d, bool split, bool forced) {
         const auto halves = splitTriangle(t);
         const std::int32_t tile = tileOf(t);
         TileMesh& mesh = tiles_[idx(tile)];
+        // the pages this first writes are what a renderer will upload (the upload budget)
+        const std::size_t pages_before = mesh.dirtyPages().size();
         if (split) {
             if (emitted(t)) {
                 [[maybe_unused]] const bool held = mesh.remove(tileKey(t, tile));
@@ -130,6 +132,7 @@ void Tessellator::splitTriangles(const Diamond& d, bool split, bool forced) {
                 mesh.add(tileKey(t, tile), indicesOf(t, tile));
             ++mesh.counters().merges;
         }
+        upload_pages_ += static_cast<std::int64_t>(mesh.dirtyPages().size() - pages_before);
     }
 }
 
@@ -321,6 +324,7 @@ void Tessellator::attachGrain(std::int32_t block, int g) {
     segments[idx(segment)].chunk = chunk;
     grain.segment[idx(chunk)] = segment;
     ++vertex_version_[idx(tile)];
+    upload_vertices_ += kGrainVertices[static_cast<std::size_t>(g)];
 }
 
 void Tessellator::detachGrain(std::int32_t block, int g) {
@@ -495,6 +499,10 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
                 refreshCandidate(id);
         }
     }
+    // the resident blocks' heights follow the op now, with the base grid's (read from the
+    // terrain): a mesh drawn before the next update() is the new surface, without cracks
+    // between a block and the grid around it (their bounds wait for the frames' budget)
+    freshenHeights();
 }
 
 void Tessellator::mergeOverlapping(std::vector<CellRect>& rects) {

@@ -9,6 +9,7 @@
 #include <terrain/client/tessellation_feed.h>
 #include <terrain/procedural_map.h>
 #include <terrain/render/glfw_window.h>
+#include <terrain/render/gpu_timer.h>
 #include <terrain/render/terrain_renderer.h>
 #include <terrain/roam/tessellator.h>
 #include <terrain/surface_query.h>
@@ -20,6 +21,7 @@
 #include <GLFW/glfw3.h>
 
 #include <algorithm>
+#include <array>
 #include <asio.hpp>
 #include <chrono>
 #include <cmath>
@@ -154,6 +156,7 @@ class Viewer {
     std::unique_ptr<InProcessServer> server_;
     std::unique_ptr<render::GlfwWindow> window_;
     std::unique_ptr<render::TerrainRenderer> renderer_;
+    std::unique_ptr<render::GpuTimer> gpu_timer_;
     std::unique_ptr<ViewerOverlay> overlay_;
     std::optional<WindowInput> input_;
     client::Replica replica_;
@@ -176,6 +179,8 @@ class Viewer {
     std::uint64_t last_accepted_seq_ = 0;
     RollingMedian tess_ms_{60};
     RollingMedian draw_ms_{60};
+    RollingMedian gpu_ms_{60};
+    std::vector<double> all_gpu_ms_;
     RollingMedian frame_ms_{60};
     /// Whole-run timings, for the report and the exit summary of a scripted run.
     bool keep_all_ = false;
@@ -237,16 +242,22 @@ Status Viewer::startServer() {
 Status Viewer::openWindow() {
     // a scripted run draws as fast as it can; an interactive one waits for the display
     const bool vsync = options_.frames == 0;
+    render::ContextOptions co;
+    co.debug = options_.gl_debug;
     Result<std::unique_ptr<render::GlfwWindow>> window = render::GlfwWindow::create(
-        options_.width, options_.height, "terrain-viewer - " + address_, vsync);
+        options_.width, options_.height, "terrain-viewer - " + address_, vsync, co);
     if (!window)
         return window.error();
     window_ = std::move(*window);
+    render::RendererOptions ro;
+    ro.upload = *render::parseUploadPath(options_.upload_path); // checked with the options
+    ro.validate = options_.validate_buffers;
     Result<std::unique_ptr<render::TerrainRenderer>> renderer =
-        render::TerrainRenderer::create(*window_);
+        render::TerrainRenderer::create(*window_, ro);
     if (!renderer)
         return renderer.error();
     renderer_ = std::move(*renderer);
+    gpu_timer_ = std::make_unique<render::GpuTimer>(window_->gl());
     renderer_->setGeomorph(options_.geomorph);
     Result<std::unique_ptr<ViewerOverlay>> overlay = ViewerOverlay::create(window_->handle());
     if (!overlay)
@@ -410,19 +421,31 @@ Status Viewer::loop() {
         const Clock::time_point t0 = Clock::now();
         last_stats_ = tess_->update(camera);
         const Clock::time_point t1 = Clock::now();
+        gpu_timer_->begin();
         last_upload_ = renderer_->sync(*tess_, terrain);
         const render::UploadStats morphed = renderer_->morph(*tess_, camera);
         last_upload_.vertex_bytes += morphed.vertex_bytes;
         render_options.mode = drawModeOf(controls_.draw_mode);
         renderer_->draw(*tess_, camera, render_options);
-        // wait for the pixels, so "draw" is what drawing cost and not just the submission
-        window_->gl().Finish();
+        gpu_timer_->end();
+        // the CPU's part only: the GPU's comes back from its timer a few frames later, and
+        // waiting for it here (glFinish) would stall every frame
         const Clock::time_point t2 = Clock::now();
         const double tess_ms = 1000.0 * secondsBetween(t0, t1);
         const double draw_ms = 1000.0 * secondsBetween(t1, t2);
         tess_ms_.push(tess_ms);
         draw_ms_.push(draw_ms);
-        tess_->setMaxTriangles(budget_->observe(tess_ms + draw_ms, last_stats_.triangles));
+        std::array<double, render::GpuTimer::kQueries> gpu_done{};
+        const std::size_t done = gpu_timer_->collect(gpu_done);
+        for (std::size_t k = 0; k < done; ++k) {
+            gpu_ms_.push(gpu_done[k]);
+            if (keep_all_)
+                all_gpu_ms_.push_back(gpu_done[k]);
+        }
+        // the budget steers on the slower of the two where the GPU's time is known
+        const double gpu_frame = gpu_timer_->latestMs().value_or(0.0);
+        tess_->setMaxTriangles(
+            budget_->observe(std::max(tess_ms + draw_ms, gpu_frame), last_stats_.triangles));
         if (keep_all_) {
             all_tess_ms_.push_back(tess_ms);
             all_draw_ms_.push_back(draw_ms);
@@ -536,6 +559,7 @@ OverlayView Viewer::overlayView() const {
     v.visible_triangles = last_stats_.visible_triangles;
     v.tessellation_ms = tess_ms_.median();
     v.draw_ms = draw_ms_.median();
+    v.gpu_ms = gpu_ms_.median();
     v.frame_ms = frame_ms_.median();
     v.upload_bytes = last_upload_.bytes();
     v.upload_bytes_total = renderer_ ? renderer_->totals().bytes() : 0;
@@ -570,7 +594,20 @@ int Viewer::finish() {
     r.median_frame_ms = medianOf(all_frame_ms_);
     r.median_tessellation_ms = medianOf(all_tess_ms_);
     r.median_draw_ms = medianOf(all_draw_ms_);
+    r.median_gpu_ms = medianOf(all_gpu_ms_);
     r.bytes_uploaded = renderer_->totals().bytes();
+    r.upload_path = render::toString(renderer_->uploadPath());
+    if (const render::GlDebugLog* log = window_->debugLog()) {
+        r.gl_errors = static_cast<std::int64_t>(log->errors());
+        r.gl_messages = static_cast<std::int64_t>(log->messages());
+    }
+    if (options_.validate_buffers) {
+        const render::ValidationReport& v = renderer_->validation();
+        r.buffer_mismatches =
+            static_cast<std::int64_t>(v.vertex_mismatches + v.index_mismatches + v.short_buffers);
+        if (!v.clean())
+            std::fprintf(stderr, "terrain-viewer: buffers differ: %s\n", v.first_problem.c_str());
+    }
     r.rtt_ms = 1000.0 * connection_->roundTripSeconds();
     const std::string status = hashStatus();
     const std::string disconnect = connection_->lastDisconnect();

@@ -39,6 +39,13 @@ void addViewerOptions(CLI::App& app, ViewerOptions& o) {
            "arrives)")
         ->check(CLI::NonNegativeNumber);
     app.add_flag("--wireframe", o.wireframe, "start drawing lines over the shading");
+    app.add_flag(
+        "--gl-debug", o.gl_debug,
+        "a debug GL context: every KHR_debug message to stderr, errors in the report");
+    app.add_option("--upload-path", o.upload_path, "auto | persistent | map-range");
+    app.add_flag(
+        "--validate-buffers", o.validate_buffers,
+        "read the GPU buffers back after every sync and compare them with the mesh (slow)");
     app.add_option("--crater-radius", o.crater_radius, "crater radius in metres");
     app.add_option("--crater-depth", o.crater_depth, "crater depth in metres");
     app.add_option("--frames", o.frames, "exit after this many frames (0: when the window closes)");
@@ -54,6 +61,8 @@ void addViewerOptions(CLI::App& app, ViewerOptions& o) {
 Status finishViewerOptions(ViewerOptions& o) {
     if (!(o.tau_pixels > 0.0) || !std::isfinite(o.tau_pixels))
         return rule("--tau must be > 0 (pixels)");
+    if (o.upload_path != "auto" && o.upload_path != "persistent" && o.upload_path != "map-range")
+        return rule("--upload-path must be auto, persistent or map-range");
     if (!(o.geomorph >= 0.0 && o.geomorph < 1.0))
         return rule("--geomorph must be within [0, 1) (a share of tau; 0 turns it off)");
     if (o.max_triangles < 1000)

@@ -75,7 +75,8 @@ void ViewerOverlay::draw(const OverlayView& v, OverlayControls& c) {
     ImGui::Text(
         "triangles %lld visible / %lld", static_cast<long long>(v.visible_triangles),
         static_cast<long long>(v.triangles));
-    ImGui::Text("tessellate %.2f ms   draw %.2f ms", v.tessellation_ms, v.draw_ms);
+    ImGui::Text(
+        "tessellate %.2f ms   draw %.2f ms   GPU %.2f ms", v.tessellation_ms, v.draw_ms, v.gpu_ms);
     ImGui::Text(
         "frame      %.2f ms (%.0f fps)", v.frame_ms, v.frame_ms > 0.0 ? 1000.0 / v.frame_ms : 0.0);
     ImGui::Text(

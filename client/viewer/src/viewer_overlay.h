@@ -28,7 +28,8 @@ struct OverlayView {
     std::int64_t triangles = 0;
     std::int64_t visible_triangles = 0;
     double tessellation_ms = 0.0; ///< median of the last 60 frames
-    double draw_ms = 0.0;         ///< sync + draw + glFinish, median of the last 60
+    double draw_ms = 0.0;         ///< sync + draw (CPU), median of the last 60
+    double gpu_ms = 0.0;          ///< the GPU's time for uploads and draws, median of 60
     double frame_ms = 0.0;
     std::uint64_t upload_bytes = 0; ///< this frame
     std::uint64_t upload_bytes_total = 0;

@@ -38,6 +38,11 @@ Status writeViewerReport(const std::filesystem::path& path, const ViewerReport& 
     j["median_frame_ms"] = r.median_frame_ms;
     j["median_tessellation_ms"] = r.median_tessellation_ms;
     j["median_draw_ms"] = r.median_draw_ms;
+    j["median_gpu_ms"] = r.median_gpu_ms;
+    j["upload_path"] = r.upload_path;
+    j["gl_errors"] = r.gl_errors;
+    j["gl_messages"] = r.gl_messages;
+    j["buffer_mismatches"] = r.buffer_mismatches;
     j["bytes_uploaded"] = r.bytes_uploaded;
     j["rtt_ms"] = r.rtt_ms;
     j["craters_requested"] = r.craters_requested;

@@ -9,6 +9,7 @@
 #include <terrain/bot/bot_script.h>
 #include <terrain/client/op_pacing.h>
 #include <terrain/render/offscreen.h>
+#include <terrain/render/upload_ring.h>
 #include <terrain/result.h>
 #include <terrain/terrain.h>
 
@@ -35,7 +36,16 @@ struct BotConfig {
     int ops_per_frame = client::kDefaultOpsPerFrame;
     bool render = false; ///< offscreen: frame times include drawing
     render::OffscreenBackend backend = render::OffscreenBackend::kOsmesa;
-    std::filesystem::path png_dir; ///< before.png, after.png (+ every png_every frames)
+    /// A debug context: every KHR_debug message logged (stderr), errors counted in the report.
+    bool gl_debug = false;
+    /// The renderer reads its buffers back after every sync and compares them with the
+    /// tessellator (RendererOptions::validate); mismatches are counted in the report. Slow.
+    bool validate_buffers = false;
+    render::UploadPath upload_path = render::UploadPath::kAuto;
+    /// Bytes of mesh changes a frame may cause a renderer to upload; the rest waits
+    /// (roam::TessellatorOptions::upload_budget_bytes).
+    std::int64_t upload_budget_bytes = -1; ///< negative: the tessellator's default
+    std::filesystem::path png_dir;         ///< before.png, after.png (+ every png_every frames)
     int png_every = 0;
     double join_timeout_seconds = 60.0;
     /// After the script: the world counts as settled once no op arrived for this long and every

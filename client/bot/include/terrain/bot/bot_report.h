@@ -40,8 +40,15 @@ struct BotReport {
     int craters_refused = 0;
     int craters_missed = 0; ///< the click's ray hit no ground
     Spread tessellate_ms;
-    Spread render_ms; ///< sync + draw + finish (0 without rendering)
-    Spread frame_ms;  ///< whole frame: network, tessellation, rendering
+    Spread render_ms;  ///< sync + draw + present (0 without rendering)
+    Spread sync_ms;    ///< of it, the renderer's sync: vertices, normals, staging, GPU copies
+    Spread draw_ms;    ///< the draw calls' submission
+    Spread present_ms; ///< present(): the wait for the frame two back (2 frames in flight)
+    /// GPU time of each frame's uploads and draws (GL_TIME_ELAPSED), frames whose result came
+    /// back; empty (zeros, gpu_frames 0) where the context has no timer queries.
+    Spread gpu_ms;
+    int gpu_frames = 0;
+    Spread frame_ms; ///< whole frame: network, tessellation, rendering
     Spread triangles;
     Spread visible_triangles;
     Spread triangle_cap;       ///< the cap each frame ran under (the frame budget moves it)
@@ -50,8 +57,15 @@ struct BotReport {
     std::uint64_t vertex_bytes = 0;
     std::uint64_t index_bytes = 0;
     Spread upload_bytes_per_frame;
-    std::uint64_t bytes_in = 0;    ///< from the server, all frames
-    std::uint64_t op_bytes_in = 0; ///< of which op broadcasts
+    std::string upload_path;             ///< persistent | map-range
+    std::uint64_t gpu_copies = 0;        ///< glCopyBufferSubData calls, all told
+    std::uint64_t ring_waits = 0;        ///< uploads that waited for the GPU (ring full)
+    std::int64_t after_holes = -1;       ///< sky pixels below the horizon in after.png (-1: none)
+    std::int64_t gl_errors = -1;         ///< KHR_debug errors with --gl-debug (-1: not asked)
+    std::int64_t gl_messages = -1;       ///< every KHR_debug message with --gl-debug
+    std::int64_t buffer_mismatches = -1; ///< --validate-buffers: vertices + indices that differed
+    std::uint64_t bytes_in = 0;          ///< from the server, all frames
+    std::uint64_t op_bytes_in = 0;       ///< of which op broadcasts
     double rtt_ms = 0.0;
     std::string renderer; ///< GL renderer string, empty without rendering
     std::vector<std::string> pngs;

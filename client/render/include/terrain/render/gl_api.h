@@ -72,11 +72,35 @@ namespace terrain::render {
     X(PFNGLBINDRENDERBUFFERPROC, BindRenderbuffer)                                                 \
     X(PFNGLRENDERBUFFERSTORAGEPROC, RenderbufferStorage)                                           \
     X(PFNGLFRAMEBUFFERRENDERBUFFERPROC, FramebufferRenderbuffer)                                   \
-    X(PFNGLCHECKFRAMEBUFFERSTATUSPROC, CheckFramebufferStatus)
+    X(PFNGLCHECKFRAMEBUFFERSTATUSPROC, CheckFramebufferStatus)                                     \
+    X(PFNGLGETSTRINGIPROC, GetStringi)                                                             \
+    X(PFNGLFLUSHPROC, Flush)                                                                       \
+    X(PFNGLGETBUFFERSUBDATAPROC, GetBufferSubData)                                                 \
+    X(PFNGLGETBUFFERPARAMETERIVPROC, GetBufferParameteriv)                                         \
+    X(PFNGLISBUFFERPROC, IsBuffer)                                                                 \
+    X(PFNGLMAPBUFFERRANGEPROC, MapBufferRange)                                                     \
+    X(PFNGLUNMAPBUFFERPROC, UnmapBuffer)                                                           \
+    X(PFNGLFENCESYNCPROC, FenceSync)                                                               \
+    X(PFNGLCLIENTWAITSYNCPROC, ClientWaitSync)                                                     \
+    X(PFNGLDELETESYNCPROC, DeleteSync)                                                             \
+    X(PFNGLGENQUERIESPROC, GenQueries)                                                             \
+    X(PFNGLDELETEQUERIESPROC, DeleteQueries)                                                       \
+    X(PFNGLBEGINQUERYPROC, BeginQuery)                                                             \
+    X(PFNGLENDQUERYPROC, EndQuery)                                                                 \
+    X(PFNGLGETQUERYOBJECTIVPROC, GetQueryObjectiv)                                                 \
+    X(PFNGLGETQUERYOBJECTUI64VPROC, GetQueryObjectui64v)
+
+// Functions beyond 3.3 core, null where the context lacks them: KHR_debug (core in 4.3) and
+// ARB_buffer_storage (core in 4.4). hasExtension() says whether to use them.
+#define TERRAIN_GL_OPTIONAL_FUNCTIONS(X)                                                           \
+    X(PFNGLDEBUGMESSAGECALLBACKPROC, DebugMessageCallback)                                         \
+    X(PFNGLDEBUGMESSAGECONTROLPROC, DebugMessageControl)                                           \
+    X(PFNGLBUFFERSTORAGEPROC, BufferStorage)
 
 struct GlApi {
 #define TERRAIN_GL_MEMBER(type, name) type name = nullptr;
     TERRAIN_GL_FUNCTIONS(TERRAIN_GL_MEMBER)
+    TERRAIN_GL_OPTIONAL_FUNCTIONS(TERRAIN_GL_MEMBER)
 #undef TERRAIN_GL_MEMBER
 
     using Loader = void* (*)(const char* name, void* user);
@@ -84,6 +108,11 @@ struct GlApi {
     /// Fills every entry through `loader` (with the context current). Errors: kUnsupported
     /// naming the first function the context does not provide.
     Status load(Loader loader, void* user);
+
+    /// The context's major * 10 + minor version (33 for 3.3).
+    int version() const;
+    /// Whether the context lists the extension (GL_NUM_EXTENSIONS / glGetStringi).
+    bool hasExtension(const char* name) const;
 };
 
 /// A loader's function pointer as the void* that GlApi::load takes (memcpy: no cast between

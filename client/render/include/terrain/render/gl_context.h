@@ -7,10 +7,18 @@
 
 #include <terrain/io/png_image.h>
 #include <terrain/render/gl_api.h>
+#include <terrain/render/gl_debug.h>
 
+#include <memory>
 #include <string>
 
 namespace terrain::render {
+
+struct ContextOptions {
+    /// A debug context (EGL_CONTEXT_OPENGL_DEBUG, GLFW_OPENGL_DEBUG_CONTEXT) with KHR_debug
+    /// output routed to debugLog(): every driver message logged, errors counted.
+    bool debug = false;
+};
 
 class GlContext {
   public:
@@ -34,11 +42,21 @@ class GlContext {
     /// The default framebuffer's colour, top row first (call before present() for a window).
     virtual io::RgbImage readPixels() const;
 
+    /// The KHR_debug log of a context created with ContextOptions::debug whose GL has KHR_debug;
+    /// null otherwise.
+    GlDebugLog* debugLog() const { return debug_log_.get(); }
+
   protected:
+    /// For a backend, once its context is current and loaded: a debug log if `options` ask.
+    /// False if they do and the context lacks KHR_debug (then there is no log).
+    bool attachDebugLog(const ContextOptions& options);
     /// The backend's make-current call; false if it failed.
     virtual bool bindToThread() const = 0;
     /// For destructors: this context is no longer current anywhere it was made current here.
     void forgetCurrent() const;
+
+  private:
+    std::unique_ptr<GlDebugLog> debug_log_;
 };
 
 } // namespace terrain::render

@@ -15,8 +15,12 @@ class GlfwWindow final : public GlContext {
   public:
     /// Errors: kUnsupported when GLFW cannot start (no DISPLAY: the message says so) or gives
     /// no 3.3 core context; kOutOfRange for a size outside 1..16384.
-    static Result<std::unique_ptr<GlfwWindow>>
-    create(int width, int height, const std::string& title, bool vsync);
+    static Result<std::unique_ptr<GlfwWindow>> create(
+        int width,
+        int height,
+        const std::string& title,
+        bool vsync,
+        const ContextOptions& options = {});
     ~GlfwWindow() override;
     GlfwWindow(const GlfwWindow&) = delete;
     GlfwWindow& operator=(const GlfwWindow&) = delete;

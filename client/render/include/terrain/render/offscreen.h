@@ -16,7 +16,7 @@ Result<OffscreenBackend> parseOffscreenBackend(const std::string& name);
 const char* toString(OffscreenBackend backend);
 
 /// The backend's context, current on this thread (see OsmesaContext::create, EglContext::create).
-Result<std::unique_ptr<GlContext>>
-createOffscreenContext(OffscreenBackend backend, int width, int height);
+Result<std::unique_ptr<GlContext>> createOffscreenContext(
+    OffscreenBackend backend, int width, int height, const ContextOptions& options = {});
 
 } // namespace terrain::render

@@ -5,6 +5,7 @@
 // linked in, its gl* exports would clash with glvnd's libGL in a process that also opens a
 // window.
 
+#include <terrain/render/frame_pacer.h>
 #include <terrain/render/gl_context.h>
 
 #include <memory>
@@ -16,7 +17,8 @@ class OsmesaContext final : public GlContext {
   public:
     /// Errors: kUnsupported when libOSMesa.so.8 is missing or gives no 3.3 core context (the
     /// message says which), kOutOfRange for a size outside 1..8192.
-    static Result<std::unique_ptr<OsmesaContext>> create(int width, int height);
+    static Result<std::unique_ptr<OsmesaContext>>
+    create(int width, int height, const ContextOptions& options = {});
     ~OsmesaContext() override;
     OsmesaContext(const OsmesaContext&) = delete;
     OsmesaContext& operator=(const OsmesaContext&) = delete;
@@ -24,7 +26,8 @@ class OsmesaContext final : public GlContext {
     const GlApi& gl() const override { return gl_; }
     int width() const override { return width_; }
     int height() const override { return height_; }
-    void present() override { gl_.Finish(); }
+    /// Submits the frame; waits only while more than FramePacer::kFramesInFlight are queued.
+    void present() override { pacer_.frameDone(gl_); }
     /// Straight from the memory OSMesa draws into (complete after glFinish).
     io::RgbImage readPixels() const override;
 
@@ -41,6 +44,7 @@ class OsmesaContext final : public GlContext {
     int height_ = 0;
     mutable std::vector<unsigned char> buffer_; // written by GL, not by this class
     GlApi gl_;
+    FramePacer pacer_;
 };
 
 } // namespace terrain::render

@@ -1,10 +1,11 @@
 #pragma once
 
-// The terrain program (terrain_shaders.h) and what every renderer of it sets: the frame's
-// eye-at-origin view and a projection whose far plane reaches the farthest map corner, the light,
-// haze and height-range uniforms, and per draw the origin its positions are relative to and the
-// map's rectangle that clips them. TerrainRenderer and MeshRenderer draw through it, so their
-// pictures differ only in the triangles.
+// The terrain program (terrain_shaders.h) and what every renderer of it sets, once a frame: the
+// eye-at-origin view and a projection whose far plane reaches the farthest map corner, the eye
+// in lattice units (positions are lattice units from the map's corner), the map's rectangle that
+// clips them, the light, haze and height-range uniforms. Nothing changes per draw, so a vertex
+// shared by two draws transforms to the same bits. TerrainRenderer and MeshRenderer draw through
+// it, so their pictures differ only in the triangles.
 
 #include <terrain/render/gl_api.h>
 #include <terrain/render/terrain_renderer.h>
@@ -32,13 +33,8 @@ class TerrainProgram {
         const RenderOptions& options) const;
     /// The clip planes off and no program in use.
     void endFrame(const GlApi& gl) const;
-    /// Positions of the next draws are metres from (origin_x, origin_y, 0); the map clips them.
-    void setOrigin(
-        const GlApi& gl,
-        const roam::Camera& camera,
-        const WorldSpec& spec,
-        double origin_x,
-        double origin_y) const;
+    /// Metres per lattice unit (1/16 cell): what a position's x and y count in.
+    static double metresPerLattice(const WorldSpec& spec);
     /// The lowest and highest base sample of `terrain` (metres): the colour ramp's ends. Taken
     /// once per world, so that a crater does not recolour the whole map.
     static std::pair<float, float> heightRange(const Terrain& terrain);
@@ -49,7 +45,9 @@ class TerrainProgram {
   private:
     unsigned program_ = 0;
     int u_view_projection_ = -1;
-    int u_tile_from_eye_ = -1;
+    int u_eye_whole_ = -1;
+    int u_eye_rest_ = -1;
+    int u_metres_per_lattice_ = -1;
     int u_clip_ = -1;
     int u_sun_ = -1;
     int u_sky_ = -1;

@@ -1,17 +1,25 @@
 #pragma once
 
-// Draws the tessellator's output. Per tile: a static vertex buffer (the tile's vertex array:
-// base grid + detail blocks, positions and normals), rebuilt only when the tile's vertex
-// version changes, and an index buffer into which only the dirty pages of the tile's index list
-// are copied (glBufferSubData per run of pages; the whole list after a rewrite or growth).
-// Only tiles in view or seen lately hold buffers (setEvictAfterFrames).
-// Every byte sent to the GL is counted. The renderer never decides level of detail: it draws
-// what roam::Tessellator chose, and clips triangles that reach into the map's padding.
+// Draws the tessellator's output. Per tile: a vertex buffer (the tile's vertex array: base grid
+// + detail blocks, positions and normals) of which only the vertices that changed are sent, and
+// an index buffer into which only the dirty pages of the tile's index list are sent. Every byte
+// goes through an UploadRing (upload_ring.h): staged during sync(), written once into a
+// streaming buffer, and copied by the GPU into the tile buffers, which nothing else writes. A
+// buffer a tile outgrows is copied into its successor on the GPU. Only tiles in view or seen
+// lately hold buffers (setEvictAfterFrames). Every byte sent to the GL is counted. The renderer
+// never decides level of detail: it draws what roam::Tessellator chose, and clips triangles that
+// reach into the map's padding.
 //
-// Positions are stored relative to each tile's corner and drawn relative to the eye, so floats
-// keep millimetres on maps tens of kilometres wide.
+// Watertight: positions are lattice units (1/16 cell) from the map's corner, whole numbers that
+// a float holds exactly, and are moved to the eye by uniforms that are the same for every draw of
+// a frame; so every copy of a shared vertex (in two tiles, in two cell blocks) reaches the
+// rasterizer as the same bits, and a rasterizer's watertightness rules leave no pixel out. (Per
+// tile origins moved by a per-draw uniform rounded differently on either side of a tile edge.)
+// The eye's position is split into a whole and a fractional part, so floats keep millimetres on
+// maps tens of kilometres wide.
 
 #include <terrain/render/gl_context.h>
+#include <terrain/render/upload_ring.h>
 #include <terrain/roam/camera.h>
 #include <terrain/roam/tessellator.h>
 #include <terrain/terrain.h>
@@ -21,14 +29,18 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <string>
 #include <vector>
 
 namespace terrain::render {
 
 class TerrainProgram;
+class TileVertexBuilder;
+struct LatticeRegion;
 
-/// One vertex in a tile's buffer: metres from the tile's corner (z absolute) and the normal
-/// packed as signed 10:10:10:2 (GL_INT_2_10_10_10_REV, normalised).
+/// One vertex in a tile's buffer: x and y in lattice units (1/16 cell) from the map's corner
+/// (whole numbers), z in metres, and the normal packed as signed 10:10:10:2
+/// (GL_INT_2_10_10_10_REV, normalised).
 struct GpuVertex {
     float x = 0.0f;
     float y = 0.0f;
@@ -51,11 +63,43 @@ struct RenderOptions {
 struct UploadStats {
     std::uint64_t vertex_bytes = 0;
     std::uint64_t index_bytes = 0;
-    std::uint32_t vertex_tiles = 0;  ///< tiles whose vertex buffer was rebuilt
-    std::uint32_t index_tiles = 0;   ///< tiles whose index buffer was written
-    std::uint32_t index_uploads = 0; ///< glBufferData/glBufferSubData calls for indices
-    std::uint32_t evicted_tiles = 0; ///< tiles whose buffers were given back (out of view)
+    std::uint32_t vertex_tiles = 0;   ///< tiles whose vertex buffer was written
+    std::uint32_t index_tiles = 0;    ///< tiles whose index buffer was written
+    std::uint32_t index_uploads = 0;  ///< runs of index pages sent (one GPU copy each)
+    std::uint32_t vertex_uploads = 0; ///< runs of vertices sent (one GPU copy each)
+    std::uint32_t evicted_tiles = 0;  ///< tiles whose buffers were given back (out of view)
+    std::uint32_t loaded_tiles = 0;   ///< tiles whose buffers were (re)created and sent whole
+    std::uint64_t load_bytes = 0;     ///< of the bytes, those of tiles loaded whole
+    std::uint32_t grown_buffers = 0;  ///< buffers outgrown, their contents moved on the GPU
+    std::uint64_t moved_bytes = 0;    ///< bytes those GPU copies moved (not uploaded)
     std::uint64_t bytes() const { return vertex_bytes + index_bytes; }
+};
+
+/// How the renderer sends data and whether it checks it.
+struct RendererOptions {
+    UploadPath upload = UploadPath::kAuto;
+    /// Initial size of the streaming ring (it grows when a frame needs more).
+    std::uint64_t ring_bytes = 8u << 20;
+    /// After every sync() and morph(), read every resident tile's buffers back
+    /// (glGetBufferSubData) and compare them with a fresh build from the tessellator; new
+    /// buffers are filled with a poison pattern first, so that drawing from a byte never
+    /// written shows. For tests and --validate-buffers; slow.
+    bool validate = false;
+};
+
+/// What validation found (RendererOptions::validate), since creation.
+struct ValidationReport {
+    std::uint64_t syncs = 0;
+    std::uint64_t tiles = 0;             ///< resident tiles compared, all told
+    std::uint64_t vertices = 0;          ///< vertices compared
+    std::uint64_t indices = 0;           ///< index list entries compared
+    std::uint64_t vertex_mismatches = 0; ///< vertices whose 16 bytes differ from a fresh build
+    std::uint64_t index_mismatches = 0;  ///< indices that differ from the tile's list
+    std::uint64_t short_buffers = 0;     ///< buffers smaller than what they must hold
+    std::string first_problem;           ///< where the first mismatch was, for a person
+    bool clean() const {
+        return vertex_mismatches == 0 && index_mismatches == 0 && short_buffers == 0;
+    }
 };
 
 struct DrawStats {
@@ -67,14 +111,17 @@ class TerrainRenderer {
   public:
     /// Compiles the shaders in `context` (current on this thread). Errors: kUnsupported with the
     /// compiler's log.
-    static Result<std::unique_ptr<TerrainRenderer>> create(const GlContext& context);
+    static Result<std::unique_ptr<TerrainRenderer>>
+    create(const GlContext& context, const RendererOptions& options = {});
     ~TerrainRenderer();
     TerrainRenderer(const TerrainRenderer&) = delete;
     TerrainRenderer& operator=(const TerrainRenderer&) = delete;
 
-    /// Brings the GPU buffers up to date with `tess` (after its update()) and takes its changes
-    /// (so one tessellator feeds one renderer; a renderer created later loads everything once).
-    /// `terrain` is the surface `tess` was built on (normals come from it).
+    /// Brings the GPU buffers up to date with `tess` and takes its changes (so one tessellator
+    /// feeds one renderer; a renderer created later loads everything once). `terrain` is the
+    /// surface `tess` was built on (normals come from it). Usually after tess.update(); a mesh
+    /// that terrainChanged() touched since is drawn as it stands (its freed slots are
+    /// degenerate triangles, all slots are drawn).
     UploadStats sync(roam::Tessellator& tess, const Terrain& terrain);
     /// Where the surface changed (the replica's dirty cells; `all` for a snapshot), before the
     /// next sync(). Required for exact normals: vertices within a cell of a change get new ones,
@@ -100,6 +147,11 @@ class TerrainRenderer {
 
     /// Totals since creation.
     const UploadStats& totals() const { return totals_; }
+    /// The streaming ring: the path taken (persistent or map-range) and what it did.
+    UploadPath uploadPath() const { return ring_->path(); }
+    const RingStats& ringStats() const { return ring_->stats(); }
+    /// RendererOptions::validate's findings (all zero when it is off).
+    const ValidationReport& validation() const { return validation_; }
     /// Bytes held in GL buffers now.
     std::uint64_t gpuBytes() const;
     /// Bytes of the CPU copies of vertex buffers (what uploads diff against).
@@ -116,7 +168,7 @@ class TerrainRenderer {
 
   private:
     struct TileBuffers {
-        unsigned vao = 0;
+        unsigned vao = 0; ///< 0 while the tile holds no buffers
         unsigned vertex_buffer = 0;
         unsigned index_buffer = 0;
         std::uint32_t vertex_version = 0;
@@ -129,22 +181,19 @@ class TerrainRenderer {
         bool morphed = false; ///< morph() wrote drawn heights (restored when turned off)
         std::uint32_t index_capacity_slots = 0;
         bool has_indices = false;
-        std::uint32_t triangles = 0;
+        std::uint32_t slots = 0;        ///< index list slots in the buffer (all drawn)
         std::uint64_t last_visible = 0; ///< the sync (frame_) it was last in view
         bool seen = false;
     };
 
-    struct Region {
-        roam::LatticePoint lo;
-        roam::LatticePoint hi;
-    };
-
-    explicit TerrainRenderer(const GlContext& context);
+    TerrainRenderer(const GlContext& context, const RendererOptions& options);
     bool surfaceChangedIn(std::int32_t tile) const;
     void releaseTiles();
+    void release(TileBuffers& tb);
     void evict(TileBuffers& tb, UploadStats& stats);
+    /// A new buffer of `bytes` (poisoned when validating), bound to nothing.
+    unsigned createBuffer(std::uint64_t bytes);
     void attachVertexBuffer(const TileBuffers& tb);
-    void growVertexBuffer(TileBuffers& tb, std::uint32_t count);
     void uploadVertices(
         roam::Tessellator& tess,
         const Terrain& terrain,
@@ -152,31 +201,43 @@ class TerrainRenderer {
         TileBuffers& tb,
         UploadStats& stats);
     void uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, UploadStats& stats);
-    /// Sends the vertices [0, count) of scratch_vertices_ for which `differs` holds, in runs
-    /// that bridge short equal gaps; returns the bytes sent. The buffer is bound.
-    template <class Differs> std::uint64_t sendRuns(std::uint32_t count, Differs&& differs);
-    void drawTiles(const roam::Tessellator& tess, const roam::Camera& camera, DrawStats& stats);
+    /// Stages the vertices [0, count) of scratch_vertices_ for which `differs` holds into the
+    /// tile's vertex buffer, in runs that bridge gaps of up to kVertexRunGap; returns the bytes.
+    template <class Differs>
+    std::uint64_t
+    sendRuns(const TileBuffers& tb, std::uint32_t count, Differs&& differs, UploadStats& stats);
+    void validate(const roam::Tessellator& tess, const Terrain& terrain);
+    void drawTiles(const roam::Tessellator& tess, DrawStats& stats);
 
     const GlContext& context_;
     const GlApi& gl_;
+    RendererOptions options_;
     std::unique_ptr<TerrainProgram> program_;
+    std::unique_ptr<UploadRing> ring_;
 
     std::vector<TileBuffers> tiles_;
     WorldSpec spec_{};
     bool have_spec_ = false;
+    const Terrain* synced_terrain_ = nullptr; ///< the last sync()'s (validation after morph())
     float height_lo_ = 0.0f;
     float height_hi_ = 0.0f;
     std::uint64_t frame_ = 0; ///< syncs since creation
     std::uint32_t evict_after_frames_ = kDefaultEvictAfterFrames;
-    std::vector<Region> changed_; ///< surfaceChanged() since the last sync, in lattice units
+    std::vector<LatticeRegion> changed_; ///< surfaceChanged() since the last sync
     bool all_changed_ = false;
-    std::vector<roam::TileVertex> scratch_keys_;
+    std::unique_ptr<TileVertexBuilder> builder_;
     std::vector<GpuVertex> scratch_vertices_;
+    std::vector<GpuVertex> scratch_staged_;
     std::vector<std::uint32_t> scratch_pages_;
     std::vector<double> scratch_heights_;
     std::vector<std::uint8_t> scratch_send_;
+    std::vector<unsigned char> poison_;
+    std::vector<GpuVertex> expected_vertices_; ///< validation
+    std::vector<unsigned char> readback_;      ///< validation
+    std::vector<std::uint8_t> written_;        ///< validation: tiles whose vertices this sync wrote
     double geomorph_ = 0.0;
     UploadStats totals_;
+    ValidationReport validation_;
 };
 
 } // namespace terrain::render

@@ -83,6 +83,15 @@ struct TessellatorOptions {
     std::int64_t work_budget = 40'000;
     /// A block or grain materialised during split/merge costs this many splits of work_budget.
     static constexpr std::int64_t kMaterialiseWork = 16;
+    /// Bytes the frame's splits and merges may make a renderer upload: each index page
+    /// (TileMesh::kSlotsPerPage slots) when first written since the renderer took the tile,
+    /// each grain's vertices when they join a tile's array (kUploadBytesPerVertex each). Past
+    /// it the rest waits for the next frame, like work past work_budget, and the frame's error
+    /// bound says so (budget_exhausted). Ops' own height changes are not held back (they are
+    /// paced where they arrive). 0: no limit. 2 MiB: 120 MB/s at 60 frames a second, a small
+    /// share of any GPU's bus; a U-turn low over a battle wants 5-15 MiB in one frame.
+    std::int64_t upload_budget_bytes = 2 << 20;
+    static constexpr std::int64_t kUploadBytesPerVertex = 16;
     /// Detail blocks whose bounds an op made stale, recomputed per frame (their heights follow
     /// the op at once, so the mesh drawn is the new surface); the rest wait for the next frames,
     /// and meanwhile the error bound is not exact there (FrameStats::stale_blocks). A crater in
@@ -124,6 +133,10 @@ struct FrameStats {
     std::int64_t visible_triangles = 0;    ///< in tiles that intersect the frustum
     std::int64_t index_bytes_written = 0;
     std::int64_t index_bytes_total = 0; ///< size of every tile's index list
+    /// What split/merge this frame will make a renderer upload (upload_budget_bytes' measure:
+    /// index pages first written, grain vertices added).
+    std::int64_t upload_bytes = 0;
+    bool upload_budget_bound = false; ///< splits or merges waited for the upload budget
     /// The screen error (pixels) every triangle of the mesh is within: tau, or the higher
     /// threshold the triangle cap forced, or more while splits the frame wanted wait (cap or
     /// work budget). Exact only when !budget_exhausted (waiting candidates were not all priced).
@@ -473,6 +486,14 @@ class Tessellator {
                TessellatorOptions::kMaterialiseWork *
                    (materialised_ + grains_materialised_ - made_at_frame_start_);
     }
+    /// This frame's upload so far, in bytes (TessellatorOptions::upload_budget_bytes).
+    std::int64_t uploadSpent() const { return uploadTotal() - upload_at_frame_start_; }
+    std::int64_t uploadTotal() const {
+        return upload_pages_ * TileMesh::kSlotsPerPage * TileMesh::kIndexBytesPerTriangle +
+               upload_vertices_ * TessellatorOptions::kUploadBytesPerVertex;
+    }
+    /// Either budget spent: what is left waits for the next frame.
+    bool budgetSpent(FrameStats& stats) const;
     void evaluate(const ViewMetric& m, DiamondId id, FrameStats& stats);
     void setCandidate(DiamondId id, std::uint8_t kind);
     void clearCandidate(DiamondId id);
@@ -541,6 +562,9 @@ class Tessellator {
     std::int64_t chunks_moved_ = 0;
     /// materialised_ + grains_materialised_ when the frame began (its work budget counts them)
     std::int64_t made_at_frame_start_ = 0;
+    std::int64_t upload_pages_ = 0;          ///< index pages first written by split/merge, all told
+    std::int64_t upload_vertices_ = 0;       ///< grain vertices added to tiles' arrays, all told
+    std::int64_t upload_at_frame_start_ = 0; ///< their bytes when the frame began
 
     // per tile
     std::vector<TileMesh> tiles_;

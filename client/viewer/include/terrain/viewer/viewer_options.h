@@ -38,6 +38,12 @@ struct ViewerOptions {
     /// arrives; client/op_pacing.h).
     int ops_per_frame = client::kDefaultOpsPerFrame;
     bool wireframe = false;
+    /// A debug GL context: every KHR_debug message to stderr, errors in the report.
+    bool gl_debug = false;
+    /// How the renderer streams its uploads: auto, persistent (GL 4.4) or map-range (GL 3.3).
+    std::string upload_path = "auto";
+    /// Read the GPU buffers back after every sync and compare them with the mesh (slow).
+    bool validate_buffers = false;
     double crater_radius = 8.0; ///< metres
     double crater_depth = 3.0;  ///< metres
     // scripted runs

@@ -36,8 +36,13 @@ struct ViewerReport {
     std::int64_t visible_triangles = 0;
     double median_frame_ms = 0.0;
     double median_tessellation_ms = 0.0;
-    double median_draw_ms = 0.0; ///< sync + draw + glFinish
+    double median_draw_ms = 0.0; ///< sync + draw, the CPU's part
+    double median_gpu_ms = 0.0;  ///< GL_TIME_ELAPSED of the uploads and draws (0: no timer)
     std::uint64_t bytes_uploaded = 0;
+    std::string upload_path;             ///< persistent | map-range
+    std::int64_t gl_errors = -1;         ///< with --gl-debug: KHR_debug errors (-1: not asked)
+    std::int64_t gl_messages = -1;       ///< with --gl-debug: every message
+    std::int64_t buffer_mismatches = -1; ///< with --validate-buffers
     double rtt_ms = 0.0;
 
     std::int64_t craters_requested = 0;
