@@ -269,8 +269,7 @@ int main(int argc, char** argv) {
         const auto t1 = bench::Clock::now();
         const client::SurfaceChanges changes =
             client::surfaceChanges(replica.takeDirty(), replica.terrain().spec());
-        if (client::feedChanges(changes, tess) && renderer)
-            renderer->surfaceChanged(changes.cells, changes.all);
+        client::feedChanges(changes, tess);
         const double feed_ms = bench::msSince(t1);
         const auto t2 = bench::Clock::now();
         const double threshold = tess.threshold();

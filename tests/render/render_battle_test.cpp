@@ -18,10 +18,14 @@
 #include "support/terrain_builders.h"
 
 #include <terrain/lodlab/flights.h>
+#include <terrain/render/gpu_timer.h>
 #include <terrain/render/sky_holes.h>
+#include <terrain/surface_query.h>
 
 #include <gtest/gtest.h>
 
+#include <array>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <string>
@@ -110,7 +114,6 @@ TEST_P(RenderBattle, IncrementalBuffersDrawWhatFreshBuffersDrawWithoutHoles) {
         if (cells.empty())
             return;
         scene.tess->terrainChanged(cells, false);
-        scene.renderer->surfaceChanged(cells, false);
     };
 
     const render::RenderOptions draw_options;
@@ -218,6 +221,109 @@ TEST(RenderValidation, SeesABufferChangedBehindTheRenderersBack) {
     const render::ValidationReport& v = scene.renderer->validation();
     EXPECT_GT(v.vertex_mismatches + v.index_mismatches, 0u);
     std::printf("validation after the overwrite: %s\n", v.first_problem.c_str());
+}
+
+} // namespace
+} // namespace terrain
+
+namespace terrain {
+namespace {
+
+// GPU time comes back from timer queries a few frames late, without waiting, one value per
+// frame, each within the wall time the frames took.
+TEST(GpuTimer, FramesComeBackTimedWithinTheirWallTime) {
+    Terrain t = testing::makeHills(7, 257, 257, 1.0);
+    testing::RenderScene scene(t, 1.0, kWidth, kHeight, testBackend());
+    ASSERT_TRUE(scene.ok());
+    render::GpuTimer timer(scene.context->gl());
+    roam::Camera camera;
+    camera.eye = {-30.0, -30.0, 80.0};
+    camera.forward = glm::dvec3(128.0, 128.0, 30.0) - camera.eye;
+    camera.viewport_width = kWidth;
+    camera.viewport_height = kHeight;
+    std::vector<double> times;
+    std::array<double, render::GpuTimer::kQueries> done{};
+    const auto start = std::chrono::steady_clock::now();
+    constexpr int kFrames = 30;
+    for (int f = 0; f < kFrames + 8; ++f) {
+        if (f < kFrames) {
+            camera.eye.x += 1.0;
+            scene.tess->update(camera);
+            timer.begin();
+            scene.renderer->sync(*scene.tess, t);
+            scene.renderer->draw(*scene.tess, camera, render::RenderOptions{});
+            timer.end();
+            scene.context->present();
+        } else {
+            scene.context->gl().Finish(); // the last ones, to collect them
+        }
+        const std::size_t n = timer.collect(done);
+        times.insert(times.end(), done.begin(), done.begin() + static_cast<std::ptrdiff_t>(n));
+    }
+    const double wall_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_EQ(times.size() + timer.skipped() + timer.invalid(), static_cast<std::size_t>(kFrames));
+    EXPECT_LE(timer.invalid(), 2u);
+    EXPECT_GE(times.size(), static_cast<std::size_t>(kFrames - 4));
+    for (const double ms : times) {
+        EXPECT_GT(ms, 0.0);
+        EXPECT_LT(ms, wall_ms);
+    }
+    timer.release();
+}
+
+} // namespace
+} // namespace terrain
+
+namespace terrain {
+namespace {
+
+// A crater's uploads are what it changed in the buffers: over a battle watched from a still
+// camera, the bytes sent (tiles already loaded) stay within 4 times the bytes that differ in the
+// buffers afterwards (vertices, and index pages: the renderer's unit), read back and compared.
+TEST(RenderBattleUploads, ACratersUploadsAreWithinFourTimesWhatItChanged) {
+    Terrain t = testing::makeHills(21, 385, 385, 1.0);
+    testing::RenderScene scene(t, 1.0, kWidth, kHeight, testBackend());
+    ASSERT_TRUE(scene.ok());
+    const lodlab::BattleZone zone = lodlab::battleZone(t);
+    roam::Camera camera;
+    const glm::dvec3 centre(zone.x, zone.y, surfaceHeight(t, zone.x, zone.y));
+    camera.eye = centre + glm::dvec3(-30.0, -22.0, 18.0);
+    camera.forward = centre - camera.eye;
+    camera.viewport_width = kWidth;
+    camera.viewport_height = kHeight;
+    BattleGenerator shots = lodlab::battleGenerator(t);
+    // settle: the mesh and the buffers reach the view
+    for (int f = 0; f < 20; ++f)
+        (void)scene.frame(camera);
+    const render::ValidationReport before = scene.renderer->validation();
+    std::uint64_t sent = 0;
+    int craters = 0;
+    for (int f = 0; f < 200; ++f) {
+        if (f % 4 == 0) {
+            const BattleShot shot = shots.next(t);
+            if (shot.crater)
+                if (auto op = quantizeOp(*shot.crater, t.spec()))
+                    if (auto effect = t.apply(*op)) {
+                        scene.tess->terrainChanged(
+                            std::span<const CellRect>(&effect->cells, 1), false);
+                        ++craters;
+                    }
+        }
+        (void)scene.frame(camera);
+        sent += scene.uploaded.bytes() - scene.uploaded.load_bytes;
+    }
+    const render::ValidationReport& after = scene.renderer->validation();
+    const std::uint64_t changed = (after.changed_vertex_bytes - before.changed_vertex_bytes) +
+                                  (after.changed_index_bytes - before.changed_index_bytes);
+    std::printf(
+        "%d craters from a still camera: %.1f KB sent, %.1f KB changed in the buffers "
+        "(%.2f x)\n",
+        craters, sent / 1024.0, changed / 1024.0, static_cast<double>(sent) / changed);
+    EXPECT_GE(craters, 40);
+    EXPECT_GT(changed, 0u);
+    EXPECT_LE(sent, 4 * changed);
+    scene.expectClean();
 }
 
 } // namespace

@@ -84,7 +84,6 @@ TEST_P(OffscreenRender, ACraterChangesThePixelsWhereItIsAndNoOthers) {
     const io::RgbImage before = scene.frame(camera);
     const OpEffect effect = blast(t, centre.x, centre.y, 12.0, 5.0);
     scene.tess->terrainChanged(std::span<const CellRect>(&effect.cells, 1), false);
-    scene.renderer->surfaceChanged(std::span<const CellRect>(&effect.cells, 1), false);
     const io::RgbImage after = scene.frame(camera);
     const std::string backend = render::toString(GetParam());
     ASSERT_TRUE(io::writeRgbPng(outputDir() / (backend + "_crater_before.png"), before).ok());
@@ -249,7 +248,8 @@ TEST(OsmesaRender, GeomorphDrawsTheSlidingHeightsWithinTauAndSendsOnlyWhatMoved)
 }
 
 // Buffers follow the tessellation: a still camera uploads nothing, a crater uploads the tiles
-// it changed, and the renderer sends exactly the bytes the tiles' dirty pages hold.
+// it changed, and the renderer sends the bytes the tiles' dirty pages hold (and the single clean
+// pages between them, at most as many again).
 TEST(OsmesaRender, UploadsOnlyWhatChanged) {
     Terrain t = testing::makeHills(7, 257, 257, 1.0);
     Scene scene(t, 1.0);
@@ -275,7 +275,6 @@ TEST(OsmesaRender, UploadsOnlyWhatChanged) {
     // a crater inside tile 5 (cells 64..127 x 64..127): its vertex array grows detail blocks
     const OpEffect effect = blast(t, 96.0, 96.0, 6.0, 2.0);
     scene.tess->terrainChanged(std::span<const CellRect>(&effect.cells, 1), false);
-    scene.renderer->surfaceChanged(std::span<const CellRect>(&effect.cells, 1), false);
     scene.tess->update(camera);
     // a changed tile sends its dirty pages; one that outgrew its buffer moves the rest of its
     // list into a bigger one on the GPU, uploading nothing more
@@ -299,7 +298,9 @@ TEST(OsmesaRender, UploadsOnlyWhatChanged) {
         "crater: %llu vertex bytes uploaded of the tile's %llu\n",
         static_cast<unsigned long long>(after.vertex_bytes),
         static_cast<unsigned long long>(tile_bytes));
-    EXPECT_EQ(after.index_bytes, expected_index_bytes);
+    // the dirty pages, and the clean pages single gaps between them bridge (fewer copies)
+    EXPECT_GE(after.index_bytes, expected_index_bytes);
+    EXPECT_LE(after.index_bytes, 2 * expected_index_bytes);
     EXPECT_GE(after.grown_buffers, expected_grown);
     EXPECT_GT(after.index_bytes, 0u);
     EXPECT_LE(after.index_tiles, 4u);
@@ -309,7 +310,6 @@ TEST(OsmesaRender, UploadsOnlyWhatChanged) {
     // first crater's blocks are not
     const OpEffect second = blast(t, 72.0, 118.0, 5.0, 2.0);
     scene.tess->terrainChanged(std::span<const CellRect>(&second.cells, 1), false);
-    scene.renderer->surfaceChanged(std::span<const CellRect>(&second.cells, 1), false);
     render::UploadStats again;
     scene.frame(camera, &again);
     const std::uint64_t tile_bytes_now =

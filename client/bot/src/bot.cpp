@@ -169,14 +169,14 @@ Result<BotReport> runBot(const BotConfig& config) {
     std::vector<double> triangles;
     std::vector<double> visible;
     std::vector<double> uploads;
+    std::vector<double> copies;
     std::vector<double> caps;
     std::vector<double> error_bounds;
     // what the replica changed goes to the tessellator and, for normals, to the renderer
     const auto absorb = [&] {
         const client::SurfaceChanges changes =
             client::surfaceChanges(replica.takeDirty(), replica.terrain().spec());
-        if (client::feedChanges(changes, tess) && gpu.terrain)
-            gpu.terrain->surfaceChanged(changes.cells, changes.all);
+        client::feedChanges(changes, tess);
     };
     const auto frame = [&](const roam::Camera& camera) {
         const Clock::time_point t0 = Clock::now();
@@ -209,6 +209,8 @@ Result<BotReport> runBot(const BotConfig& config) {
                 gpu_ms.end(), gpu_done.begin(),
                 gpu_done.begin() + static_cast<std::ptrdiff_t>(done));
             uploads.push_back(static_cast<double>(up.bytes()));
+            copies.push_back(
+                static_cast<double>(up.vertex_uploads + up.index_uploads + up.grown_buffers));
         }
         frame_ms.push_back(msSince(t0));
         // the GPU works behind the CPU: where its time is known, the budget steers on the
@@ -315,6 +317,7 @@ Result<BotReport> runBot(const BotConfig& config) {
     report.triangle_cap = Spread::of(caps);
     report.error_bound_pixels = Spread::of(error_bounds);
     report.upload_bytes_per_frame = Spread::of(uploads);
+    report.copies_per_frame = Spread::of(copies);
     if (gpu.terrain) {
         report.vertex_bytes = gpu.terrain->totals().vertex_bytes;
         report.index_bytes = gpu.terrain->totals().index_bytes;

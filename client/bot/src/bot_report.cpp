@@ -82,6 +82,7 @@ std::string toJson(const BotReport& r) {
           {"per_frame", spreadJson(r.upload_bytes_per_frame)},
           {"path", r.upload_path},
           {"gpu_copies", r.gpu_copies},
+          {"copies_per_frame", spreadJson(r.copies_per_frame)},
           {"ring_waits", r.ring_waits}}},
         {"after_holes", r.after_holes},
         {"gl_errors", r.gl_errors},
@@ -152,6 +153,8 @@ Result<BotReport> readReport(const std::filesystem::path& path) {
         // fields added with the GPU work (2026-12-04); older reports lack them
         r.upload_path = u.value("path", std::string());
         r.gpu_copies = u.value("gpu_copies", std::uint64_t{0});
+        if (u.contains("copies_per_frame"))
+            r.copies_per_frame = spreadFrom(u.at("copies_per_frame"));
         r.ring_waits = u.value("ring_waits", std::uint64_t{0});
         if (j.contains("sync_ms")) {
             r.sync_ms = spreadFrom(j.at("sync_ms"));

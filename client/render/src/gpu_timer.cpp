@@ -18,6 +18,7 @@ void GpuTimer::begin() {
         return;
     }
     gl_.BeginQuery(GL_TIME_ELAPSED, queries_[next_]);
+    began_[next_] = std::chrono::steady_clock::now();
     running_ = true;
 }
 
@@ -41,10 +42,17 @@ std::size_t GpuTimer::collect(std::array<double, kQueries>& out) {
             break; // later ones finish later
         GLuint64 ns = 0;
         gl_.GetQueryObjectui64v(q, GL_QUERY_RESULT, &ns);
+        const double ms = static_cast<double>(ns) * 1e-6;
+        const double since = std::chrono::duration<double, std::milli>(
+                                 std::chrono::steady_clock::now() - began_[oldest_])
+                                 .count();
         pending_[oldest_] = false;
         oldest_ = (oldest_ + 1) % kQueries;
         --in_flight_;
-        const double ms = static_cast<double>(ns) * 1e-6;
+        if (ms > since) {
+            ++invalid_;
+            continue;
+        }
         out[n++] = ms;
         latest_ = ms;
     }

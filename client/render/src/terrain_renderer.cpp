@@ -19,6 +19,7 @@ constexpr GLsizei kVertexStride = sizeof(GpuVertex);
 // within 3x of what it changed).
 constexpr std::uint32_t kVertexRunGap = 2;
 constexpr std::uint32_t kIndexBytesPerSlot = roam::TileMesh::kIndexBytesPerTriangle;
+constexpr std::uint32_t kIndexPageGap = 1;
 // The poison a validating renderer fills new buffers with: NaN floats, indices far past any
 // vertex array.
 constexpr unsigned char kPoisonByte = 0xff;
@@ -115,6 +116,7 @@ UploadStats TerrainRenderer::sync(roam::Tessellator& tess, const Terrain& terrai
         tiles_.resize(static_cast<std::size_t>(tess.tileCount()));
     }
     ++frame_;
+    builder_->newFrame();
     for (std::int32_t t = 0; t < tess.tileCount(); ++t) {
         TileBuffers& tb = tiles_[static_cast<std::size_t>(t)];
         // residency: buffers (and their CPU copy) for tiles in view or seen lately; a tile out
@@ -134,9 +136,12 @@ UploadStats TerrainRenderer::sync(roam::Tessellator& tess, const Terrain& terrai
         }
         const std::uint64_t before = stats.bytes();
         const bool loading = !tb.has_vertices;
-        if (!tb.has_vertices || tb.vertex_version != tess.tileVertexVersion(t) ||
-            surfaceChangedIn(t))
+        if (!tb.has_vertices || tess.tileVerticesAllChanged(t) ||
+            !tess.tileVertexChanges(t).empty())
             uploadVertices(tess, terrain, t, tb, stats);
+        // a version moved with nothing marked (a grain gone, a chunk moved) leaves the buffer
+        // as current as one rebuilt
+        tb.vertex_version = tess.tileVertexVersion(t);
         roam::TileMesh& mesh = tess.tileMesh(t);
         // a renderer that joins a running tessellator loads every list once
         if (mesh.dirty() || !tb.has_indices)
@@ -146,8 +151,6 @@ UploadStats TerrainRenderer::sync(roam::Tessellator& tess, const Terrain& terrai
     }
     ring_->flush();
     gl_.BindVertexArray(0);
-    changed_.clear();
-    all_changed_ = false;
     totals_.vertex_bytes += stats.vertex_bytes;
     totals_.index_bytes += stats.index_bytes;
     totals_.vertex_tiles += stats.vertex_tiles;
@@ -170,6 +173,8 @@ void TerrainRenderer::evict(TileBuffers& tb, UploadStats& stats) {
     release(tb);
     std::vector<GpuVertex>().swap(tb.shadow);
     std::vector<float>().swap(tb.drawn_z);
+    std::vector<unsigned char>().swap(tb.checked_vertices);
+    std::vector<unsigned char>().swap(tb.checked_indices);
     tb.morphed = false;
     tb.has_vertices = false;
     tb.has_indices = false;
@@ -194,28 +199,6 @@ std::uint64_t TerrainRenderer::shadowBytes() const {
     return bytes;
 }
 
-void TerrainRenderer::surfaceChanged(std::span<const CellRect> cells, bool all) {
-    all_changed_ = all_changed_ || all;
-    // normals sample the surface up to one cell away: widen by a cell
-    for (const CellRect& c : cells)
-        if (!c.empty())
-            changed_.push_back(LatticeRegion{
-                {(c.x0 - 1) * roam::kLatticePerCell, (c.y0 - 1) * roam::kLatticePerCell},
-                {(c.x1 + 2) * roam::kLatticePerCell, (c.y1 + 2) * roam::kLatticePerCell}});
-}
-
-bool TerrainRenderer::surfaceChangedIn(std::int32_t tile) const {
-    if (all_changed_)
-        return true;
-    const std::int32_t x0 = (tile % spec_.tilesX()) * roam::kLatticePerTile;
-    const std::int32_t y0 = (tile / spec_.tilesX()) * roam::kLatticePerTile;
-    const LatticeRegion t{{x0, y0}, {x0 + roam::kLatticePerTile, y0 + roam::kLatticePerTile}};
-    for (const LatticeRegion& r : changed_)
-        if (r.lo.x <= t.hi.x && t.lo.x <= r.hi.x && r.lo.y <= t.hi.y && t.lo.y <= r.hi.y)
-            return true;
-    return false;
-}
-
 void TerrainRenderer::attachVertexBuffer(const TileBuffers& tb) {
     // the attribute formats and the buffer are recorded in the tile's vertex array
     gl_.BindVertexArray(tb.vao);
@@ -234,12 +217,36 @@ void TerrainRenderer::uploadVertices(
     std::int32_t tile,
     TileBuffers& tb,
     UploadStats& stats) {
-    const bool full = !tb.has_vertices || all_changed_;
-    builder_->build(
-        tess, terrain, tile, full ? std::span<const GpuVertex>() : std::span(tb.shadow), changed_,
-        scratch_vertices_);
-    const auto count = static_cast<std::uint32_t>(scratch_vertices_.size());
-    const auto old_count = full ? 0u : static_cast<std::uint32_t>(tb.shadow.size());
+    const auto count = static_cast<std::uint32_t>(tess.tileVertexCount(tile));
+    const auto old_count = static_cast<std::uint32_t>(tb.shadow.size());
+    // what to build: everything for a tile loaded (or reset), else the ranges the tessellator
+    // marked, sorted and joined
+    scratch_ranges_.clear();
+    if (!tb.has_vertices || tess.tileVerticesAllChanged(tile)) {
+        scratch_ranges_.push_back({0, count});
+    } else {
+        for (const roam::VertexRange& r : tess.tileVertexChanges(tile))
+            scratch_ranges_.push_back({r.begin, std::min(r.end, count)});
+        if (count > old_count) // the array only grows between resets: new grains, marked too
+            scratch_ranges_.push_back({old_count, count});
+        std::sort(
+            scratch_ranges_.begin(), scratch_ranges_.end(),
+            [](const roam::VertexRange& a, const roam::VertexRange& b) {
+                return a.begin < b.begin;
+            });
+        std::size_t kept = 0;
+        for (const roam::VertexRange& r : scratch_ranges_) {
+            if (r.begin >= r.end)
+                continue;
+            if (kept > 0 && r.begin <= scratch_ranges_[kept - 1].end)
+                scratch_ranges_[kept - 1].end = std::max(scratch_ranges_[kept - 1].end, r.end);
+            else
+                scratch_ranges_[kept++] = r;
+        }
+        scratch_ranges_.resize(kept);
+    }
+    tess.takeVertexChanges(tile);
+
     if (!tb.has_vertices) {
         tb.vertex_capacity = count; // exactly: most tiles never gain a block
         tb.vertex_buffer = createBuffer(vertexBytes(count));
@@ -249,37 +256,43 @@ void TerrainRenderer::uploadVertices(
         // is uploaded; a quarter to spare, as a tile gains blocks crater by crater
         tb.vertex_capacity = count + count / 4;
         const unsigned grown = createBuffer(vertexBytes(tb.vertex_capacity));
-        const std::uint64_t kept = vertexBytes(tb.shadow.size());
+        const std::uint64_t kept = vertexBytes(std::min(old_count, count));
         ring_->moveBuffer(tb.vertex_buffer, grown, kept);
         tb.vertex_buffer = grown;
         attachVertexBuffer(tb);
         ++stats.grown_buffers;
         stats.moved_bytes += kept;
     }
-    // what the buffer draws: the true height where this sends, the morphed one elsewhere (a
-    // bridged gap sends its drawn height again)
+    // only a reset shrinks the array; what lies past its end is never drawn
+    tb.shadow.resize(count);
     tb.drawn_z.resize(count);
-    scratch_send_.resize(count);
-    for (std::uint32_t i = 0; i < count; ++i) {
-        const bool send = i >= old_count ||
-                          std::memcmp(&scratch_vertices_[i], &tb.shadow[i], sizeof(GpuVertex)) != 0;
-        scratch_send_[i] = send ? 1 : 0;
-        if (send)
-            tb.drawn_z[i] = scratch_vertices_[i].z;
+    const std::uint32_t known = std::min(old_count, count);
+    std::uint64_t bytes = 0;
+    for (const roam::VertexRange& r : scratch_ranges_) {
+        const std::uint32_t n = r.end - r.begin;
+        scratch_vertices_.resize(n);
+        builder_->build(tess, terrain, tile, r.begin, scratch_vertices_);
+        // send what differs from the buffer's contents; what the buffer draws is the true
+        // height where this sends, the morphed one elsewhere (a bridged gap sends its drawn
+        // height again)
+        scratch_send_.resize(n);
+        for (std::uint32_t k = 0; k < n; ++k) {
+            const std::uint32_t i = r.begin + k;
+            const bool send =
+                i >= known ||
+                std::memcmp(&scratch_vertices_[k], &tb.shadow[i], sizeof(GpuVertex)) != 0;
+            scratch_send_[k] = send ? 1 : 0;
+            if (send) {
+                tb.drawn_z[i] = scratch_vertices_[k].z;
+                tb.shadow[i] = scratch_vertices_[k];
+            }
+        }
+        bytes += sendRuns(
+            tb, r.begin, n, [&](std::uint32_t k) { return scratch_send_[k] != 0; }, stats);
     }
-    const std::uint64_t bytes = sendRuns(
-        tb, count, [&](std::uint32_t i) { return scratch_send_[i] != 0; }, stats);
-    // the copy keeps this tile's size: swapping would hand the scratch's capacity (the largest
-    // tile synced so far) to every tile in turn
-    tb.shadow.assign(scratch_vertices_.begin(), scratch_vertices_.end());
     if (tb.shadow.capacity() > tb.shadow.size() + tb.shadow.size() / 2)
         tb.shadow.shrink_to_fit();
-    tb.vertex_version = tess.tileVertexVersion(tile);
     tb.has_vertices = true;
-    if (options_.validate) {
-        written_.resize(tiles_.size(), 0);
-        written_[static_cast<std::size_t>(tile)] = 1;
-    }
     stats.vertex_bytes += bytes;
     if (bytes > 0)
         ++stats.vertex_tiles;
@@ -287,28 +300,33 @@ void TerrainRenderer::uploadVertices(
 
 template <class Differs>
 std::uint64_t TerrainRenderer::sendRuns(
-    const TileBuffers& tb, std::uint32_t count, Differs&& differs, UploadStats& stats) {
+    const TileBuffers& tb,
+    std::uint32_t first,
+    std::uint32_t count,
+    Differs&& differs,
+    UploadStats& stats) {
+    // scratch_vertices_[k] is vertex first + k; the buffer's copy of it is the shadow, with the
+    // drawn height
     std::uint64_t bytes = 0;
-    std::uint32_t i = 0;
-    while (i < count) {
-        if (!differs(i)) {
-            ++i;
+    std::uint32_t k = 0;
+    while (k < count) {
+        if (!differs(k)) {
+            ++k;
             continue;
         }
-        const std::uint32_t first = i;
-        std::uint32_t last = i + 1; // one past the last differing vertex
-        for (++i; i < count && i - last < kVertexRunGap; ++i)
-            if (differs(i))
-                last = i + 1;
-        // the run as the buffer is to hold it: a bridged vertex keeps its drawn height
-        scratch_staged_.assign(scratch_vertices_.begin() + first, scratch_vertices_.begin() + last);
-        for (std::uint32_t k = first; k < last; ++k)
-            scratch_staged_[k - first].z = tb.drawn_z[k];
-        const std::uint64_t run = vertexBytes(last - first);
-        ring_->stage(tb.vertex_buffer, vertexBytes(first), scratch_staged_.data(), run);
+        const std::uint32_t begin = k;
+        std::uint32_t end = k + 1; // one past the last differing vertex
+        for (++k; k < count && k - end < kVertexRunGap; ++k)
+            if (differs(k))
+                end = k + 1;
+        scratch_staged_.assign(tb.shadow.begin() + first + begin, tb.shadow.begin() + first + end);
+        for (std::uint32_t m = begin; m < end; ++m)
+            scratch_staged_[m - begin].z = tb.drawn_z[first + m];
+        const std::uint64_t run = vertexBytes(end - begin);
+        ring_->stage(tb.vertex_buffer, vertexBytes(first + begin), scratch_staged_.data(), run);
         bytes += run;
         ++stats.vertex_uploads;
-        i = last;
+        k = end;
     }
     return bytes;
 }
@@ -341,7 +359,6 @@ UploadStats TerrainRenderer::morph(const roam::Tessellator& tess, const roam::Ca
             continue;
         }
         tb.morphed = on;
-        scratch_vertices_.assign(tb.shadow.begin(), tb.shadow.end());
         scratch_send_.resize(count);
         bool any = false;
         for (std::uint32_t i = 0; i < count; ++i) {
@@ -353,7 +370,7 @@ UploadStats TerrainRenderer::morph(const roam::Tessellator& tess, const roam::Ca
         if (!any)
             continue;
         stats.vertex_bytes += sendRuns(
-            tb, count, [&](std::uint32_t i) { return scratch_send_[i] != 0; }, stats);
+            tb, 0, count, [&](std::uint32_t i) { return scratch_send_[i] != 0; }, stats);
         ++stats.vertex_tiles;
     }
     ring_->flush();
@@ -398,7 +415,8 @@ void TerrainRenderer::uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, Uploa
             ++stats.index_uploads;
         }
     } else {
-        // runs of consecutive dirty pages, one GPU copy each
+        // runs of dirty pages, one GPU copy each; a run bridges one clean page (at most as many
+        // bytes for nothing as it sends, for half the calls where writes are scattered)
         scratch_pages_.assign(mesh.dirtyPages().begin(), mesh.dirtyPages().end());
         std::sort(scratch_pages_.begin(), scratch_pages_.end());
         constexpr std::uint32_t kPage = roam::TileMesh::kSlotsPerPage;
@@ -406,7 +424,7 @@ void TerrainRenderer::uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, Uploa
         while (k < scratch_pages_.size()) {
             std::size_t end = k + 1;
             while (end < scratch_pages_.size() &&
-                   scratch_pages_[end] == scratch_pages_[end - 1] + 1)
+                   scratch_pages_[end] <= scratch_pages_[end - 1] + 1 + kIndexPageGap)
                 ++end;
             const std::uint32_t first = scratch_pages_[k] * kPage;
             const std::uint32_t last = std::min(slots, (scratch_pages_[end - 1] + 1) * kPage);

@@ -1,10 +1,9 @@
 #include "tile_vertex_builder.h"
 
-#include <terrain/surface_query.h>
+#include <terrain/roam/detail_blocks.h>
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 
 namespace terrain::render {
 
@@ -18,103 +17,134 @@ std::uint32_t packNormal(double nx, double ny, double nz) {
 
 namespace {
 
-/// A smooth normal from the true surface: central differences over the vertex's own grid step
-/// (a cell on the base grid, a lattice step inside a detail block), one-sided at the map's
-/// edge, where the surface is clamped.
-std::uint32_t
-normalAt(const Terrain& terrain, const roam::TileVertex& v, bool on_base_grid, double per_lattice) {
-    const WorldSpec& spec = terrain.spec();
-    const double spacing = spec.spacingMetres();
-    double dzdx = 0.0;
-    double dzdy = 0.0;
-    if (on_base_grid) {
-        // on the base grid the surface at the neighbouring vertices is their sample (patch
-        // corners are pinned to them): read the samples, no surface queries; the padding takes
-        // the map edge's slope
-        const std::int32_t gx = std::min(v.position.x / roam::kLatticePerCell, spec.width - 1);
-        const std::int32_t gy = std::min(v.position.y / roam::kLatticePerCell, spec.height - 1);
-        const std::int32_t ax = std::max(gx - 1, 0);
-        const std::int32_t bx = std::min(gx + 1, spec.width - 1);
-        const std::int32_t ay = std::max(gy - 1, 0);
-        const std::int32_t by = std::min(gy + 1, spec.height - 1);
-        const double unit = spec.metresPerUnit();
-        if (bx > ax)
-            dzdx = (terrain.sample(bx, gy) - terrain.sample(ax, gy)) * unit / ((bx - ax) * spacing);
-        if (by > ay)
-            dzdy = (terrain.sample(gx, by) - terrain.sample(gx, ay)) * unit / ((by - ay) * spacing);
-    } else {
-        const double x = v.position.x * per_lattice;
-        const double y = v.position.y * per_lattice;
-        const double step = per_lattice;
-        const double x0 = std::max(x - step, 0.0);
-        const double x1 = std::min(x + step, spec.extentX());
-        const double y0 = std::max(y - step, 0.0);
-        const double y1 = std::min(y + step, spec.extentY());
-        if (x1 > x0)
-            dzdx = (surfaceHeight(terrain, x1, y) - surfaceHeight(terrain, x0, y)) / (x1 - x0);
-        if (y1 > y0)
-            dzdy = (surfaceHeight(terrain, x, y1) - surfaceHeight(terrain, x, y0)) / (y1 - y0);
-    }
+std::uint32_t normalOfSlopes(double dzdx, double dzdy) {
     const double inv = 1.0 / std::sqrt(dzdx * dzdx + dzdy * dzdy + 1.0);
     return packNormal(-dzdx * inv, -dzdy * inv, inv);
 }
 
+/// On the base grid: the samples a cell either side (patch corners are pinned to them), one
+/// sided at the map's edge; the padding takes the map edge's slope.
+std::uint32_t baseNormal(const Terrain& terrain, roam::LatticePoint p) {
+    const WorldSpec& spec = terrain.spec();
+    const double spacing = spec.spacingMetres();
+    const std::int32_t gx = std::min(p.x / roam::kLatticePerCell, spec.width - 1);
+    const std::int32_t gy = std::min(p.y / roam::kLatticePerCell, spec.height - 1);
+    const std::int32_t ax = std::max(gx - 1, 0);
+    const std::int32_t bx = std::min(gx + 1, spec.width - 1);
+    const std::int32_t ay = std::max(gy - 1, 0);
+    const std::int32_t by = std::min(gy + 1, spec.height - 1);
+    const double unit = spec.metresPerUnit();
+    double dzdx = 0.0;
+    double dzdy = 0.0;
+    if (bx > ax)
+        dzdx = (terrain.sample(bx, gy) - terrain.sample(ax, gy)) * unit / ((bx - ax) * spacing);
+    if (by > ay)
+        dzdy = (terrain.sample(gx, by) - terrain.sample(gx, ay)) * unit / ((by - ay) * spacing);
+    return normalOfSlopes(dzdx, dzdy);
+}
+
 } // namespace
+
+void TileVertexBuilder::positions(
+    const roam::Tessellator& tess,
+    std::int32_t tile,
+    std::uint32_t first,
+    std::span<GpuVertex> out) {
+    const double per_fine = tess.metresPerFineUnit();
+    keys_.resize(out.size());
+    tess.tileVertices(tile, first, keys_);
+    for (std::size_t i = 0; i < out.size(); ++i) {
+        const roam::TileVertex& v = keys_[i];
+        // lattice units from the map's corner: whole numbers below 2^24, exact in a float, so
+        // every copy of a vertex (tiles, cell blocks) is the same bits
+        out[i] = GpuVertex{
+            static_cast<float>(v.position.x), static_cast<float>(v.position.y),
+            static_cast<float>(static_cast<double>(v.height) * per_fine), 0u};
+    }
+}
+
+void TileVertexBuilder::newFrame() {
+    cell_slot_.clear();
+    grids_.clear();
+    last_key_ = ~std::uint64_t{0};
+    last_grid_ = nullptr;
+}
+
+const std::int64_t*
+TileVertexBuilder::cellGrid(const Terrain& terrain, std::int32_t cx, std::int32_t cy) {
+    const std::uint64_t key =
+        (std::uint64_t{static_cast<std::uint32_t>(cx)} << 32) | static_cast<std::uint32_t>(cy);
+    if (key == last_key_)
+        return last_grid_;
+    constexpr auto kCell = static_cast<std::size_t>(roam::kBlockVertices);
+    // a bounded cache (2.4 MB): a whole world loaded at once starts it over now and then
+    constexpr std::size_t kMaxCells = 1024;
+    if (cell_slot_.size() >= kMaxCells && !cell_slot_.contains(key))
+        newFrame();
+    auto [it, added] =
+        cell_slot_.try_emplace(key, static_cast<std::uint32_t>(grids_.size() / kCell));
+    if (added) {
+        grids_.resize(grids_.size() + kCell);
+        roam::fillCellHeights(
+            terrain, cx, cy,
+            std::span<std::int64_t, roam::kBlockVertices>(
+                grids_.data() + it->second * kCell, kCell));
+    }
+    last_key_ = key;
+    last_grid_ = grids_.data() + it->second * kCell;
+    return last_grid_;
+}
+
+std::int64_t
+TileVertexBuilder::latticeHeight(const Terrain& terrain, std::int32_t x, std::int32_t y) {
+    // the owner: the cell at or before the point, the last real cell on the map's far lines
+    const WorldSpec& spec = terrain.spec();
+    const std::int32_t cx = std::min(x / roam::kLatticePerCell, spec.cellsX() - 1);
+    const std::int32_t cy = std::min(y / roam::kLatticePerCell, spec.cellsY() - 1);
+    const std::int64_t* grid = cellGrid(terrain, cx, cy);
+    const std::int32_t k = x - cx * roam::kLatticePerCell;
+    const std::int32_t l = y - cy * roam::kLatticePerCell;
+    return grid[static_cast<std::size_t>(l * roam::kBlockSide + k)];
+}
+
+std::uint32_t TileVertexBuilder::blockNormal(
+    const Terrain& terrain, roam::LatticePoint p, double per_lattice, double per_fine) {
+    // one lattice step either side, one sided at the real map's edge (past it, in the padding,
+    // the edge's slope)
+    const WorldSpec& spec = terrain.spec();
+    const std::int32_t max_x = spec.cellsX() * roam::kLatticePerCell;
+    const std::int32_t max_y = spec.cellsY() * roam::kLatticePerCell;
+    const std::int32_t x = std::min(p.x, max_x);
+    const std::int32_t y = std::min(p.y, max_y);
+    const std::int32_t x0 = std::max(x - 1, 0);
+    const std::int32_t x1 = std::min(x + 1, max_x);
+    const std::int32_t y0 = std::max(y - 1, 0);
+    const std::int32_t y1 = std::min(y + 1, max_y);
+    double dzdx = 0.0;
+    double dzdy = 0.0;
+    if (x1 > x0)
+        dzdx = static_cast<double>(latticeHeight(terrain, x1, y) - latticeHeight(terrain, x0, y)) *
+               per_fine / ((x1 - x0) * per_lattice);
+    if (y1 > y0)
+        dzdy = static_cast<double>(latticeHeight(terrain, x, y1) - latticeHeight(terrain, x, y0)) *
+               per_fine / ((y1 - y0) * per_lattice);
+    return normalOfSlopes(dzdx, dzdy);
+}
 
 void TileVertexBuilder::build(
     const roam::Tessellator& tess,
     const Terrain& terrain,
     std::int32_t tile,
-    std::span<const GpuVertex> previous,
-    std::span<const LatticeRegion> changed,
-    std::vector<GpuVertex>& out) {
+    std::uint32_t first,
+    std::span<GpuVertex> out) {
+    positions(tess, tile, first, out);
     const double per_lattice = tess.metresPerLattice();
     const double per_fine = tess.metresPerFineUnit();
-    const auto count = static_cast<std::uint32_t>(tess.tileVertexCount(tile));
-    const auto old_count = static_cast<std::uint32_t>(previous.size());
-    keys_.resize(count);
-    out.resize(count);
-    tess.tileVertices(tile, keys_);
-
-    // Positions first (cheap). A vertex new to its slot (a grain came, or took a hole) needs
-    // its own normal. Where one rose or fell in place, the surface changed, and so may every
-    // normal within one cell of it (the surface changes only where some vertex did: every patch
-    // cell has a detail block), as may the normals in the changed regions.
-    roam::LatticePoint lo{
-        std::numeric_limits<std::int32_t>::max(), std::numeric_limits<std::int32_t>::max()};
-    roam::LatticePoint hi{
-        std::numeric_limits<std::int32_t>::min(), std::numeric_limits<std::int32_t>::min()};
-    for (std::uint32_t i = 0; i < count; ++i) {
-        const roam::TileVertex& v = keys_[i];
-        GpuVertex& o = out[i];
-        // lattice units from the map's corner: whole numbers below 2^24, exact in a float, so
-        // every copy of a vertex (tiles, cell blocks) is the same bits
-        o.x = static_cast<float>(v.position.x);
-        o.y = static_cast<float>(v.position.y);
-        o.z = static_cast<float>(static_cast<double>(v.height) * per_fine);
-        const bool fresh = i >= old_count || o.x != previous[i].x || o.y != previous[i].y;
-        const bool moved = !fresh && o.z != previous[i].z;
-        if (moved) {
-            lo = {std::min(lo.x, v.position.x), std::min(lo.y, v.position.y)};
-            hi = {std::max(hi.x, v.position.x), std::max(hi.y, v.position.y)};
-        }
-        o.normal = fresh || moved ? 0u : previous[i].normal;
-    }
-    constexpr std::int32_t kStencil = roam::kLatticePerCell;
-    const LatticeRegion stencil{
-        {lo.x - kStencil, lo.y - kStencil}, {hi.x + kStencil, hi.y + kStencil}};
-    for (std::uint32_t i = 0; i < count; ++i) {
-        const roam::LatticePoint p = keys_[i].position;
-        const bool needed =
-            out[i].normal == 0u || stencil.contains(p) ||
-            std::any_of(changed.begin(), changed.end(), [&](const LatticeRegion& r) {
-                return r.contains(p);
-            });
-        if (needed)
-            out[i].normal = normalAt(
-                terrain, keys_[i], i < static_cast<std::uint32_t>(roam::kTileBaseVertices),
-                per_lattice);
-    }
+    constexpr auto kBase = static_cast<std::size_t>(roam::kTileBaseVertices);
+    for (std::size_t i = 0; i < out.size(); ++i)
+        out[i].normal = first + i < kBase
+                            ? baseNormal(terrain, keys_[i].position)
+                            : blockNormal(terrain, keys_[i].position, per_lattice, per_fine);
 }
 
 } // namespace terrain::render

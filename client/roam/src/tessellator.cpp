@@ -38,6 +38,9 @@ void Tessellator::adoptSpec() {
     tile_visible_.assign(tiles, 0);
     tile_snug_.assign(tiles, 0);
     vertex_version_.assign(tiles, 0);
+    vertex_changes_.clear();
+    vertex_changes_.resize(tiles);
+    vertices_all_.assign(tiles, 1);
     tile_segments_.clear();
     tile_segments_.resize(tiles);
     tile_holes_.clear();

@@ -387,8 +387,14 @@ void Tessellator::storeHeights(std::int32_t block, unsigned grain_mask) {
         // the tile's vertex array changed: a renderer that took its version before must look
         // again (heights freshened after the op's own bump, or by a later bounds pass)
         if (moved)
-            if (const std::int32_t tile = tileOfCell(blocks_.cellOf(block)); tile >= 0)
+            if (const std::int32_t tile = tileOfCell(blocks_.cellOf(block)); tile >= 0) {
                 ++vertex_version_[idx(tile)];
+                if (const std::int32_t segment = grain.segment[idx(chunk)]; segment >= 0) {
+                    const auto first = static_cast<std::uint32_t>(
+                        kBaseVertices + tile_segments_[idx(tile)][idx(segment)].offset);
+                    markVertices(tile, first, first + static_cast<std::uint32_t>(vertices));
+                }
+            }
     }
 }
 

@@ -287,6 +287,64 @@ void Tessellator::emitTile(std::int32_t tile) {
         emitTriangle(triangleOf(root, a), tile, mesh);
 }
 
+void Tessellator::markVertices(std::int32_t tile, std::uint32_t begin, std::uint32_t end) {
+    if (vertices_all_[idx(tile)] != 0 || begin >= end)
+        return;
+    auto& ranges = vertex_changes_[idx(tile)];
+    if (!ranges.empty() && ranges.back().end == begin) {
+        ranges.back().end = end; // the next run of a row, the next segment
+        return;
+    }
+    if (ranges.size() >= kMaxVertexRanges) {
+        vertices_all_[idx(tile)] = 1;
+        ranges.clear();
+        return;
+    }
+    ranges.push_back({begin, end});
+}
+
+void Tessellator::takeVertexChanges(std::int32_t tile) {
+    vertex_changes_[idx(tile)].clear();
+    vertices_all_[idx(tile)] = 0;
+}
+
+void Tessellator::markChangedSurface(CellRect cells) {
+    // base vertices: a sample moved at the corners of the cells (x0..x1+1), and a base normal
+    // reads the samples one step either side; a block vertex's normal reads the surface one
+    // lattice step away, inside its cell or the next
+    const std::int32_t vx0 = cells.x0 - 1;
+    const std::int32_t vx1 = cells.x1 + 2;
+    const std::int32_t vy0 = cells.y0 - 1;
+    const std::int32_t vy1 = cells.y1 + 2;
+    for (std::int32_t ty = std::max(0, vy0 / kTileCells);
+         ty <= std::min(vy1 / kTileCells, spec_.tilesY() - 1); ++ty)
+        for (std::int32_t tx = std::max(0, vx0 / kTileCells);
+             tx <= std::min(vx1 / kTileCells, spec_.tilesX() - 1); ++tx) {
+            const std::int32_t tile = ty * spec_.tilesX() + tx;
+            if (vertices_all_[idx(tile)] != 0)
+                continue;
+            const std::int32_t gx0 = std::max(vx0 - tx * kTileCells, 0);
+            const std::int32_t gx1 = std::min(vx1 - tx * kTileCells, kTileCells);
+            const std::int32_t gy0 = std::max(vy0 - ty * kTileCells, 0);
+            const std::int32_t gy1 = std::min(vy1 - ty * kTileCells, kTileCells);
+            for (std::int32_t gy = gy0; gy <= gy1; ++gy)
+                markVertices(
+                    tile, static_cast<std::uint32_t>(gy * kTileVertices + gx0),
+                    static_cast<std::uint32_t>(gy * kTileVertices + gx1 + 1));
+            for (const VertexSegment& seg : tile_segments_[idx(tile)]) {
+                if (seg.chunk < 0)
+                    continue;
+                const auto g = static_cast<std::size_t>(seg.grain);
+                const DetailBlocks::CellXY c = blocks_.cellOf(grains_[g].block[idx(seg.chunk)]);
+                if (c.x < cells.x0 - 1 || c.x > cells.x1 + 1 || c.y < cells.y0 - 1 ||
+                    c.y > cells.y1 + 1)
+                    continue;
+                const auto first = static_cast<std::uint32_t>(kBaseVertices + seg.offset);
+                markVertices(tile, first, first + static_cast<std::uint32_t>(kGrainVertices[g]));
+            }
+        }
+}
+
 void Tessellator::clearTileVertices(std::int32_t tile) {
     tile_segments_[idx(tile)].clear();
     for (auto& holes : tile_holes_[idx(tile)])
@@ -324,6 +382,10 @@ void Tessellator::attachGrain(std::int32_t block, int g) {
     segments[idx(segment)].chunk = chunk;
     grain.segment[idx(chunk)] = segment;
     ++vertex_version_[idx(tile)];
+    const auto first = static_cast<std::uint32_t>(kBaseVertices + segments[idx(segment)].offset);
+    markVertices(
+        tile, first,
+        first + static_cast<std::uint32_t>(kGrainVertices[static_cast<std::size_t>(g)]));
     upload_vertices_ += kGrainVertices[static_cast<std::size_t>(g)];
 }
 
@@ -377,6 +439,48 @@ TileVertex Tessellator::tileVertex(std::int32_t tile, std::uint32_t index) const
         origin};
 }
 
+void Tessellator::tileVertices(
+    std::int32_t tile, std::uint32_t first, std::span<TileVertex> out) const {
+    const auto end = first + static_cast<std::uint32_t>(out.size());
+    TERRAIN_ASSERT(end <= static_cast<std::uint32_t>(tileVertexCount(tile)));
+    std::uint32_t i = first;
+    for (; i < end && i < static_cast<std::uint32_t>(kBaseVertices); ++i)
+        out[i - first] = tileVertex(tile, i);
+    if (i == end)
+        return;
+    const GrainTables& tables = grainTables();
+    const auto& segments = tile_segments_[idx(tile)];
+    // the segment holding i, then on through the next ones
+    const auto r = static_cast<std::int32_t>(i) - kBaseVertices;
+    auto it = std::upper_bound(
+                  segments.begin(), segments.end(), r,
+                  [](std::int32_t v, const VertexSegment& s) { return v < s.offset; }) -
+              1;
+    for (; i < end; ++it) {
+        const VertexSegment& seg = *it;
+        const auto g = static_cast<std::size_t>(seg.grain);
+        const auto seg_first = static_cast<std::uint32_t>(kBaseVertices + seg.offset);
+        const auto n = static_cast<std::uint32_t>(kGrainVertices[g]);
+        if (seg.chunk < 0) { // a hole: the tile's first vertex stands in
+            const TileVertex stand_in = tileVertex(tile, 0);
+            for (; i < end && i < seg_first + n; ++i)
+                out[i - first] = stand_in;
+            continue;
+        }
+        const DetailBlocks::CellXY c = blocks_.cellOf(grains_[g].block[idx(seg.chunk)]);
+        const LatticePoint origin{c.x * kLatticePerCell, c.y * kLatticePerCell};
+        const std::int64_t base = grains_[g].base[idx(seg.chunk)];
+        const std::uint32_t* heights = grains_[g].heights.data() + idx(seg.chunk) * n;
+        for (; i < end && i < seg_first + n; ++i) {
+            const std::uint16_t local = tables.vertex_local[g][i - seg_first];
+            out[i - first] = {
+                {origin.x + local % kBlockSide, origin.y + local / kBlockSide},
+                base + heights[i - seg_first],
+                origin};
+        }
+    }
+}
+
 void Tessellator::tileVertices(std::int32_t tile, std::span<TileVertex> out) const {
     TERRAIN_ASSERT(out.size() == static_cast<std::size_t>(tileVertexCount(tile)));
     for (std::uint32_t i = 0; i < static_cast<std::uint32_t>(kBaseVertices); ++i)
@@ -427,6 +531,8 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
         for (std::int32_t tile = 0; tile < tileCount(); ++tile) {
             clearTileVertices(tile);
             ++vertex_version_[idx(tile)];
+            vertex_changes_[idx(tile)].clear();
+            vertices_all_[idx(tile)] = 1;
         }
         recomputeBounds({}, true, false);
         needs_rebuild_ = true;
@@ -503,6 +609,8 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
     // terrain): a mesh drawn before the next update() is the new surface, without cracks
     // between a block and the grid around it (their bounds wait for the frames' budget)
     freshenHeights();
+    for (const CellRect& r : merged_)
+        markChangedSurface(r);
 }
 
 void Tessellator::mergeOverlapping(std::vector<CellRect>& rects) {

@@ -389,8 +389,7 @@ Status Viewer::loop() {
         pollNetwork();
         const client::SurfaceChanges changes =
             client::surfaceChanges(replica_.takeDirty(), replica_.terrain().spec());
-        if (client::feedChanges(changes, *tess_))
-            renderer_->surfaceChanged(changes.cells, changes.all);
+        client::feedChanges(changes, *tess_);
         const Terrain& terrain = replica_.terrain();
 
         camera_->speed = controls_.speed;

@@ -59,6 +59,7 @@ struct BotReport {
     Spread upload_bytes_per_frame;
     std::string upload_path;             ///< persistent | map-range
     std::uint64_t gpu_copies = 0;        ///< glCopyBufferSubData calls, all told
+    Spread copies_per_frame;             ///< GPU copies a frame's uploads took
     std::uint64_t ring_waits = 0;        ///< uploads that waited for the GPU (ring full)
     std::int64_t after_holes = -1;       ///< sky pixels below the horizon in after.png (-1: none)
     std::int64_t gl_errors = -1;         ///< KHR_debug errors with --gl-debug (-1: not asked)

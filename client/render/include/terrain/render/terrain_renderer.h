@@ -36,7 +36,6 @@ namespace terrain::render {
 
 class TerrainProgram;
 class TileVertexBuilder;
-struct LatticeRegion;
 
 /// One vertex in a tile's buffer: x and y in lattice units (1/16 cell) from the map's corner
 /// (whole numbers), z in metres, and the normal packed as signed 10:10:10:2
@@ -96,7 +95,13 @@ struct ValidationReport {
     std::uint64_t vertex_mismatches = 0; ///< vertices whose 16 bytes differ from a fresh build
     std::uint64_t index_mismatches = 0;  ///< indices that differ from the tile's list
     std::uint64_t short_buffers = 0;     ///< buffers smaller than what they must hold
-    std::string first_problem;           ///< where the first mismatch was, for a person
+    /// What the uploads changed in the buffers of tiles already loaded (their contents
+    /// compared with the last read back): vertices whose 16 bytes differ, and index pages
+    /// (TileMesh::kSlotsPerPage slots) with any slot that differs, in bytes. What uploads
+    /// should be proportional to (UploadStats' bytes less load_bytes).
+    std::uint64_t changed_vertex_bytes = 0;
+    std::uint64_t changed_index_bytes = 0;
+    std::string first_problem; ///< where the first mismatch was, for a person
     bool clean() const {
         return vertex_mismatches == 0 && index_mismatches == 0 && short_buffers == 0;
     }
@@ -117,18 +122,13 @@ class TerrainRenderer {
     TerrainRenderer(const TerrainRenderer&) = delete;
     TerrainRenderer& operator=(const TerrainRenderer&) = delete;
 
-    /// Brings the GPU buffers up to date with `tess` and takes its changes (so one tessellator
-    /// feeds one renderer; a renderer created later loads everything once). `terrain` is the
+    /// Brings the GPU buffers up to date with `tess` and takes its changes (the vertex ranges
+    /// and index pages it marked: so one tessellator feeds one renderer; a renderer created
+    /// later loads everything once), the work proportional to what changed. `terrain` is the
     /// surface `tess` was built on (normals come from it). Usually after tess.update(); a mesh
     /// that terrainChanged() touched since is drawn as it stands (its freed slots are
     /// degenerate triangles, all slots are drawn).
     UploadStats sync(roam::Tessellator& tess, const Terrain& terrain);
-    /// Where the surface changed (the replica's dirty cells; `all` for a snapshot), before the
-    /// next sync(). Required for exact normals: vertices within a cell of a change get new ones,
-    /// in every tile (a tile's edge vertex samples its neighbour's cells), even where no vertex
-    /// moved (a change below a height's rounding, or a float's). Without it only vertices
-    /// that moved, and their tile's vertices within a cell of them, are redone.
-    void surfaceChanged(std::span<const CellRect> cells, bool all);
     /// Geomorphing: with `fraction` in (0, 1), morph() draws each vertex sliding between its
     /// hypotenuse's midpoint and its height (roam::Tessellator::morphedHeights), reaching it at
     /// the tessellator's threshold / fraction; the tessellator must then refine to fraction x
@@ -184,10 +184,12 @@ class TerrainRenderer {
         std::uint32_t slots = 0;        ///< index list slots in the buffer (all drawn)
         std::uint64_t last_visible = 0; ///< the sync (frame_) it was last in view
         bool seen = false;
+        /// Validation: the buffers as last read back (empty: loaded since).
+        std::vector<unsigned char> checked_vertices;
+        std::vector<unsigned char> checked_indices;
     };
 
     TerrainRenderer(const GlContext& context, const RendererOptions& options);
-    bool surfaceChangedIn(std::int32_t tile) const;
     void releaseTiles();
     void release(TileBuffers& tb);
     void evict(TileBuffers& tb, UploadStats& stats);
@@ -201,11 +203,16 @@ class TerrainRenderer {
         TileBuffers& tb,
         UploadStats& stats);
     void uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, UploadStats& stats);
-    /// Stages the vertices [0, count) of scratch_vertices_ for which `differs` holds into the
-    /// tile's vertex buffer, in runs that bridge gaps of up to kVertexRunGap; returns the bytes.
+    /// Stages the vertices [first, first + count) of the tile, from its shadow with their drawn
+    /// heights, where `differs(k)` holds for vertex first + k, in runs that bridge gaps of up to
+    /// kVertexRunGap; returns the bytes.
     template <class Differs>
-    std::uint64_t
-    sendRuns(const TileBuffers& tb, std::uint32_t count, Differs&& differs, UploadStats& stats);
+    std::uint64_t sendRuns(
+        const TileBuffers& tb,
+        std::uint32_t first,
+        std::uint32_t count,
+        Differs&& differs,
+        UploadStats& stats);
     void validate(const roam::Tessellator& tess, const Terrain& terrain);
     void drawTiles(const roam::Tessellator& tess, DrawStats& stats);
 
@@ -223,8 +230,7 @@ class TerrainRenderer {
     float height_hi_ = 0.0f;
     std::uint64_t frame_ = 0; ///< syncs since creation
     std::uint32_t evict_after_frames_ = kDefaultEvictAfterFrames;
-    std::vector<LatticeRegion> changed_; ///< surfaceChanged() since the last sync
-    bool all_changed_ = false;
+    std::vector<roam::VertexRange> scratch_ranges_;
     std::unique_ptr<TileVertexBuilder> builder_;
     std::vector<GpuVertex> scratch_vertices_;
     std::vector<GpuVertex> scratch_staged_;
@@ -234,7 +240,8 @@ class TerrainRenderer {
     std::vector<unsigned char> poison_;
     std::vector<GpuVertex> expected_vertices_; ///< validation
     std::vector<unsigned char> readback_;      ///< validation
-    std::vector<std::uint8_t> written_;        ///< validation: tiles whose vertices this sync wrote
+    std::vector<std::uint8_t> referenced_;     ///< validation: vertices an index refers to
+    std::int32_t validated_normals_ = -1;      ///< validation: the tile whose normals were last
     double geomorph_ = 0.0;
     UploadStats totals_;
     ValidationReport validation_;

@@ -160,6 +160,12 @@ struct TileVertex {
     LatticePoint block_origin{-1, -1};
 };
 
+/// A run [begin, end) of a tile's vertex array.
+struct VertexRange {
+    std::uint32_t begin = 0;
+    std::uint32_t end = 0;
+};
+
 class Tessellator {
   public:
     Tessellator(const Terrain& terrain, const TessellatorOptions& options);
@@ -193,8 +199,22 @@ class Tessellator {
     std::int32_t tileVertexCount(std::int32_t tile) const;
     TileVertex tileVertex(std::int32_t tile, std::uint32_t index) const;
     /// Every vertex of the tile's array at once (out.size() == tileVertexCount(tile)): what the
-    /// renderer reads when a tile's vertex version moves.
+    /// renderer reads when it loads a tile.
     void tileVertices(std::int32_t tile, std::span<TileVertex> out) const;
+    /// The vertices [first, first + out.size()) of the tile's array.
+    void tileVertices(std::int32_t tile, std::uint32_t first, std::span<TileVertex> out) const;
+    /// What changed in the tile's vertex array since takeVertexChanges(tile), so that a renderer
+    /// rebuilds only that: everything (a reset, or more ranges than kMaxVertexRanges), or these
+    /// ranges, in the order marked (they may overlap). A vertex is marked when its grain joins
+    /// the array (or takes a hole), when its height moves, and when the surface within a cell
+    /// of it changes (its normal: an op's cells widened by one). A grain that goes marks
+    /// nothing: no index refers to its vertices any more.
+    bool tileVerticesAllChanged(std::int32_t tile) const { return vertices_all_[idx(tile)] != 0; }
+    std::span<const VertexRange> tileVertexChanges(std::int32_t tile) const {
+        return vertex_changes_[idx(tile)];
+    }
+    void takeVertexChanges(std::int32_t tile);
+    static constexpr std::size_t kMaxVertexRanges = 4096;
 
     /// Geomorphing: the height (metres) each vertex of the tile's mesh is drawn at for `view`,
     /// so that splits and merges slide instead of pop; vertices the mesh does not use are left
@@ -283,6 +303,10 @@ class Tessellator {
         std::int32_t grain = 0;
     };
     void adoptSpec();
+    void markVertices(std::int32_t tile, std::uint32_t begin, std::uint32_t end);
+    /// The vertices whose height or normal an op over `cells` may have changed: the base grid
+    /// and the blocks within a cell of them.
+    void markChangedSurface(CellRect cells);
     bool insideMap(LatticePoint p) const {
         return p.x >= 0 && p.y >= 0 && p.x <= max_x_ && p.y <= max_y_;
     }
@@ -571,6 +595,8 @@ class Tessellator {
     std::vector<std::uint8_t> tile_visible_;
     std::vector<std::uint64_t> tile_snug_; ///< per tile: the frame its mesh last had no slack
     std::vector<std::uint32_t> vertex_version_;
+    std::vector<std::vector<VertexRange>> vertex_changes_; ///< per tile, since taken
+    std::vector<std::uint8_t> vertices_all_;               ///< per tile: everything changed
     /// Segments of each tile's vertex array past the base grid, by offset; a segment keeps its
     /// place while its grain lives, so index lists never move.
     std::vector<std::vector<VertexSegment>> tile_segments_;

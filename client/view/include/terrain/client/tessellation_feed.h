@@ -21,8 +21,8 @@ struct SurfaceChanges {
 SurfaceChanges surfaceChanges(const DirtySet& dirty, const WorldSpec& spec);
 
 /// Hands `changes` to `tess`, built on the replica's terrain (a snapshot resets it: it adopts a
-/// new world's size). Returns changes.any(); a renderer then takes the same changes
-/// (TerrainRenderer::surfaceChanged).
+/// new world's size). Returns changes.any(). A renderer learns what to redraw from the
+/// tessellator (its vertex ranges and index pages), not from the replica.
 bool feedChanges(const SurfaceChanges& changes, roam::Tessellator& tess);
 
 } // namespace terrain::client
