@@ -1,4 +1,5 @@
 #include "tile_vertex_builder.h"
+#include "upload_runs.h"
 
 #include <terrain/render/terrain_program.h>
 #include <terrain/render/terrain_renderer.h>
@@ -19,7 +20,6 @@ constexpr GLsizei kVertexStride = sizeof(GpuVertex);
 // within 3x of what it changed).
 constexpr std::uint32_t kVertexRunGap = 2;
 constexpr std::uint32_t kIndexBytesPerSlot = roam::TileMesh::kIndexBytesPerTriangle;
-constexpr std::uint32_t kIndexPageGap = 1;
 // The poison a validating renderer fills new buffers with: NaN floats, indices far past any
 // vertex array.
 constexpr unsigned char kPoisonByte = 0xff;
@@ -267,7 +267,7 @@ void TerrainRenderer::uploadVertices(
     tb.shadow.resize(count);
     tb.drawn_z.resize(count);
     const std::uint32_t known = std::min(old_count, count);
-    std::uint64_t bytes = 0;
+    scratch_runs_.clear();
     for (const roam::VertexRange& r : scratch_ranges_) {
         const std::uint32_t n = r.end - r.begin;
         scratch_vertices_.resize(n);
@@ -287,9 +287,9 @@ void TerrainRenderer::uploadVertices(
                 tb.shadow[i] = scratch_vertices_[k];
             }
         }
-        bytes += sendRuns(
-            tb, r.begin, n, [&](std::uint32_t k) { return scratch_send_[k] != 0; }, stats);
+        collectRuns(r.begin, n, [&](std::uint32_t k) { return scratch_send_[k] != 0; });
     }
+    const std::uint64_t bytes = stageVertexRuns(tb, stats);
     if (tb.shadow.capacity() > tb.shadow.size() + tb.shadow.size() / 2)
         tb.shadow.shrink_to_fit();
     tb.has_vertices = true;
@@ -299,35 +299,39 @@ void TerrainRenderer::uploadVertices(
 }
 
 template <class Differs>
-std::uint64_t TerrainRenderer::sendRuns(
-    const TileBuffers& tb,
-    std::uint32_t first,
-    std::uint32_t count,
-    Differs&& differs,
-    UploadStats& stats) {
-    // scratch_vertices_[k] is vertex first + k; the buffer's copy of it is the shadow, with the
-    // drawn height
-    std::uint64_t bytes = 0;
+void TerrainRenderer::collectRuns(std::uint32_t first, std::uint32_t count, Differs&& differs) {
+    // element first + k differs where differs(k); a run bridges gaps of up to kVertexRunGap
     std::uint32_t k = 0;
     while (k < count) {
         if (!differs(k)) {
             ++k;
             continue;
         }
-        const std::uint32_t begin = k;
-        std::uint32_t end = k + 1; // one past the last differing vertex
-        for (++k; k < count && k - end < kVertexRunGap; ++k)
-            if (differs(k))
-                end = k + 1;
-        scratch_staged_.assign(tb.shadow.begin() + first + begin, tb.shadow.begin() + first + end);
-        for (std::uint32_t m = begin; m < end; ++m)
-            scratch_staged_[m - begin].z = tb.drawn_z[first + m];
-        const std::uint64_t run = vertexBytes(end - begin);
-        ring_->stage(tb.vertex_buffer, vertexBytes(first + begin), scratch_staged_.data(), run);
+        UploadRun run{first + k, first + k + 1, 1};
+        for (++k; k < count && first + k - run.end < kVertexRunGap; ++k)
+            if (differs(k)) {
+                run.end = first + k + 1;
+                ++run.changed;
+            }
+        scratch_runs_.push_back(run);
+        k = run.end - first;
+    }
+}
+
+std::uint64_t TerrainRenderer::stageVertexRuns(const TileBuffers& tb, UploadStats& stats) {
+    // the buffer's copy of a vertex is the shadow with its drawn height
+    joinRuns(scratch_runs_);
+    std::uint64_t bytes = 0;
+    for (const UploadRun& r : scratch_runs_) {
+        scratch_staged_.assign(tb.shadow.begin() + r.begin, tb.shadow.begin() + r.end);
+        for (std::uint32_t m = r.begin; m < r.end; ++m)
+            scratch_staged_[m - r.begin].z = tb.drawn_z[m];
+        const std::uint64_t run = vertexBytes(r.end - r.begin);
+        ring_->stage(tb.vertex_buffer, vertexBytes(r.begin), scratch_staged_.data(), run);
         bytes += run;
         ++stats.vertex_uploads;
-        k = end;
     }
+    scratch_runs_.clear();
     return bytes;
 }
 
@@ -369,8 +373,8 @@ UploadStats TerrainRenderer::morph(const roam::Tessellator& tess, const roam::Ca
         }
         if (!any)
             continue;
-        stats.vertex_bytes += sendRuns(
-            tb, 0, count, [&](std::uint32_t i) { return scratch_send_[i] != 0; }, stats);
+        collectRuns(0, count, [&](std::uint32_t i) { return scratch_send_[i] != 0; });
+        stats.vertex_bytes += stageVertexRuns(tb, stats);
         ++stats.vertex_tiles;
     }
     ring_->flush();
@@ -415,29 +419,34 @@ void TerrainRenderer::uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, Uploa
             ++stats.index_uploads;
         }
     } else {
-        // runs of dirty pages, one GPU copy each; a run bridges one clean page (at most as many
-        // bytes for nothing as it sends, for half the calls where writes are scattered)
+        // runs of dirty pages (UploadRun: joined while at most half clean), one GPU copy each
         scratch_pages_.assign(mesh.dirtyPages().begin(), mesh.dirtyPages().end());
         std::sort(scratch_pages_.begin(), scratch_pages_.end());
         constexpr std::uint32_t kPage = roam::TileMesh::kSlotsPerPage;
-        std::size_t k = 0;
-        while (k < scratch_pages_.size()) {
-            std::size_t end = k + 1;
-            while (end < scratch_pages_.size() &&
-                   scratch_pages_[end] <= scratch_pages_[end - 1] + 1 + kIndexPageGap)
-                ++end;
-            const std::uint32_t first = scratch_pages_[k] * kPage;
-            const std::uint32_t last = std::min(slots, (scratch_pages_[end - 1] + 1) * kPage);
-            if (first < last) {
-                const std::uint64_t run = std::uint64_t{last - first} * kIndexBytesPerSlot;
-                ring_->stage(
-                    tb.index_buffer, std::uint64_t{first} * kIndexBytesPerSlot,
-                    indices + std::size_t{first} * 3, run);
-                bytes += run;
-                ++stats.index_uploads;
+        const std::uint32_t pages = (slots + kPage - 1) / kPage;
+        scratch_runs_.clear();
+        for (const std::uint32_t page : scratch_pages_) {
+            if (page >= pages)
+                break; // cut off with the end of the list
+            if (!scratch_runs_.empty() && scratch_runs_.back().end == page) {
+                ++scratch_runs_.back().end;
+                ++scratch_runs_.back().changed;
+            } else {
+                scratch_runs_.push_back({page, page + 1, 1});
             }
-            k = end;
         }
+        joinRuns(scratch_runs_);
+        for (const UploadRun& r : scratch_runs_) {
+            const std::uint32_t first = r.begin * kPage;
+            const std::uint32_t last = std::min(slots, r.end * kPage);
+            const std::uint64_t run = std::uint64_t{last - first} * kIndexBytesPerSlot;
+            ring_->stage(
+                tb.index_buffer, std::uint64_t{first} * kIndexBytesPerSlot,
+                indices + std::size_t{first} * 3, run);
+            bytes += run;
+            ++stats.index_uploads;
+        }
+        scratch_runs_.clear();
     }
     mesh.takeChanges();
     tb.has_indices = true;

@@ -36,6 +36,7 @@ namespace terrain::render {
 
 class TerrainProgram;
 class TileVertexBuilder;
+struct UploadRun;
 
 /// One vertex in a tile's buffer: x and y in lattice units (1/16 cell) from the map's corner
 /// (whole numbers), z in metres, and the normal packed as signed 10:10:10:2
@@ -203,16 +204,13 @@ class TerrainRenderer {
         TileBuffers& tb,
         UploadStats& stats);
     void uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, UploadStats& stats);
-    /// Stages the vertices [first, first + count) of the tile, from its shadow with their drawn
-    /// heights, where `differs(k)` holds for vertex first + k, in runs that bridge gaps of up to
-    /// kVertexRunGap; returns the bytes.
+    /// Appends to scratch_runs_ the runs of vertices first + k for which `differs(k)` holds,
+    /// bridging gaps of up to kVertexRunGap.
     template <class Differs>
-    std::uint64_t sendRuns(
-        const TileBuffers& tb,
-        std::uint32_t first,
-        std::uint32_t count,
-        Differs&& differs,
-        UploadStats& stats);
+    void collectRuns(std::uint32_t first, std::uint32_t count, Differs&& differs);
+    /// Joins scratch_runs_ (upload_runs.h) and stages them into the tile's vertex buffer from
+    /// its shadow, with the drawn heights; returns the bytes.
+    std::uint64_t stageVertexRuns(const TileBuffers& tb, UploadStats& stats);
     void validate(const roam::Tessellator& tess, const Terrain& terrain);
     void drawTiles(const roam::Tessellator& tess, DrawStats& stats);
 
@@ -231,6 +229,7 @@ class TerrainRenderer {
     std::uint64_t frame_ = 0; ///< syncs since creation
     std::uint32_t evict_after_frames_ = kDefaultEvictAfterFrames;
     std::vector<roam::VertexRange> scratch_ranges_;
+    std::vector<UploadRun> scratch_runs_;
     std::unique_ptr<TileVertexBuilder> builder_;
     std::vector<GpuVertex> scratch_vertices_;
     std::vector<GpuVertex> scratch_staged_;
