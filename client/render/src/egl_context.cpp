@@ -53,16 +53,22 @@ EglContext::create(int width, int height, const ContextOptions& options) {
     if (eglChooseConfig(display, config_attributes, &config, 1, &configs) != EGL_TRUE ||
         configs < 1)
         return makeError(ErrorCode::kUnsupported, eglFailure("eglChooseConfig"));
-    const EGLint context_attributes[] = {
+    // the debug attribute is EGL 1.5's: named only when asked for, so an EGL 1.4 with
+    // KHR_create_context still makes a plain context
+    EGLint context_attributes[] = {
         EGL_CONTEXT_MAJOR_VERSION,
         3,
         EGL_CONTEXT_MINOR_VERSION,
         3,
         EGL_CONTEXT_OPENGL_PROFILE_MASK,
         EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
-        EGL_CONTEXT_OPENGL_DEBUG,
-        options.debug ? EGL_TRUE : EGL_FALSE,
+        EGL_NONE,
+        EGL_NONE,
         EGL_NONE};
+    if (options.debug) {
+        context_attributes[6] = EGL_CONTEXT_OPENGL_DEBUG;
+        context_attributes[7] = EGL_TRUE;
+    }
     c->context_ = eglCreateContext(display, config, EGL_NO_CONTEXT, context_attributes);
     if (c->context_ == EGL_NO_CONTEXT)
         return makeError(ErrorCode::kUnsupported, eglFailure("eglCreateContext (3.3 core)"));

@@ -308,7 +308,7 @@ void TerrainRenderer::collectRuns(std::uint32_t first, std::uint32_t count, Diff
             continue;
         }
         UploadRun run{first + k, first + k + 1, 1};
-        for (++k; k < count && first + k - run.end < kVertexRunGap; ++k)
+        for (++k; k < count && first + k - run.end <= kVertexRunGap; ++k)
             if (differs(k)) {
                 run.end = first + k + 1;
                 ++run.changed;

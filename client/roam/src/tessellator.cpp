@@ -489,6 +489,7 @@ TessellatorMemory Tessellator::memory() const {
         m.meshes += t.memoryBytes();
     for (std::size_t t = 0; t < tile_segments_.size(); ++t) {
         m.meshes += tile_segments_[t].capacity() * sizeof(VertexSegment);
+        m.meshes += vertex_changes_[t].capacity() * sizeof(VertexRange);
         for (const auto& h : tile_holes_[t])
             m.meshes += h.capacity() * sizeof(std::int32_t);
     }

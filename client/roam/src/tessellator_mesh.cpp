@@ -296,8 +296,9 @@ void Tessellator::markVertices(std::int32_t tile, std::uint32_t begin, std::uint
         return;
     }
     if (ranges.size() >= kMaxVertexRanges) {
+        // no renderer is taking this tile's changes: it loads whole when one does
         vertices_all_[idx(tile)] = 1;
-        ranges.clear();
+        std::vector<VertexRange>().swap(ranges);
         return;
     }
     ranges.push_back({begin, end});
@@ -311,14 +312,25 @@ void Tessellator::takeVertexChanges(std::int32_t tile) {
 void Tessellator::markChangedSurface(CellRect cells) {
     // base vertices: a sample moved at the corners of the cells (x0..x1+1), and a base normal
     // reads the samples one step either side; a block vertex's normal reads the surface one
-    // lattice step away, inside its cell or the next
-    const std::int32_t vx0 = cells.x0 - 1;
-    const std::int32_t vx1 = cells.x1 + 2;
-    const std::int32_t vy0 = cells.y0 - 1;
-    const std::int32_t vy1 = cells.y1 + 2;
-    for (std::int32_t ty = std::max(0, vy0 / kTileCells);
+    // lattice step away, inside its cell or the next. Vertices in the padding take the map
+    // edge's normal: a change within two cells of the edge reaches all of them.
+    std::int32_t vx0 = cells.x0 - 1;
+    std::int32_t vx1 = cells.x1 + 2;
+    std::int32_t vy0 = cells.y0 - 1;
+    std::int32_t vy1 = cells.y1 + 2;
+    CellRect blocks{cells.x0 - 1, cells.y0 - 1, cells.x1 + 1, cells.y1 + 1};
+    if (cells.x1 + 2 >= spec_.cellsX()) {
+        vx1 = spec_.tilesX() * kTileCells;
+        blocks.x1 = vx1;
+    }
+    if (cells.y1 + 2 >= spec_.cellsY()) {
+        vy1 = spec_.tilesY() * kTileCells;
+        blocks.y1 = vy1;
+    }
+    // a tile holds grid vertices tx * 64 .. tx * 64 + 64: the one before shares column tx * 64
+    for (std::int32_t ty = std::max(0, (vy0 - 1) / kTileCells);
          ty <= std::min(vy1 / kTileCells, spec_.tilesY() - 1); ++ty)
-        for (std::int32_t tx = std::max(0, vx0 / kTileCells);
+        for (std::int32_t tx = std::max(0, (vx0 - 1) / kTileCells);
              tx <= std::min(vx1 / kTileCells, spec_.tilesX() - 1); ++tx) {
             const std::int32_t tile = ty * spec_.tilesX() + tx;
             if (vertices_all_[idx(tile)] != 0)
@@ -327,17 +339,17 @@ void Tessellator::markChangedSurface(CellRect cells) {
             const std::int32_t gx1 = std::min(vx1 - tx * kTileCells, kTileCells);
             const std::int32_t gy0 = std::max(vy0 - ty * kTileCells, 0);
             const std::int32_t gy1 = std::min(vy1 - ty * kTileCells, kTileCells);
-            for (std::int32_t gy = gy0; gy <= gy1; ++gy)
-                markVertices(
-                    tile, static_cast<std::uint32_t>(gy * kTileVertices + gx0),
-                    static_cast<std::uint32_t>(gy * kTileVertices + gx1 + 1));
+            if (gx0 <= gx1)
+                for (std::int32_t gy = gy0; gy <= gy1; ++gy)
+                    markVertices(
+                        tile, static_cast<std::uint32_t>(gy * kTileVertices + gx0),
+                        static_cast<std::uint32_t>(gy * kTileVertices + gx1 + 1));
             for (const VertexSegment& seg : tile_segments_[idx(tile)]) {
                 if (seg.chunk < 0)
                     continue;
                 const auto g = static_cast<std::size_t>(seg.grain);
                 const DetailBlocks::CellXY c = blocks_.cellOf(grains_[g].block[idx(seg.chunk)]);
-                if (c.x < cells.x0 - 1 || c.x > cells.x1 + 1 || c.y < cells.y0 - 1 ||
-                    c.y > cells.y1 + 1)
+                if (c.x < blocks.x0 || c.x > blocks.x1 || c.y < blocks.y0 || c.y > blocks.y1)
                     continue;
                 const auto first = static_cast<std::uint32_t>(kBaseVertices + seg.offset);
                 markVertices(tile, first, first + static_cast<std::uint32_t>(kGrainVertices[g]));

@@ -23,7 +23,7 @@ class GpuTimer {
     ~GpuTimer() = default;
     GpuTimer(const GpuTimer&) = delete;
     GpuTimer& operator=(const GpuTimer&) = delete;
-    /// Gives the queries back (the context current): before the context goes.
+    /// Gives the queries back (the context current); a context that goes frees them anyway.
     void release();
 
     /// Around a frame's GL work; one frame at a time. A frame that finds every query still
