@@ -59,6 +59,7 @@ struct Options {
     std::uint64_t snapshot_cache_lag = server::ServerConfig{}.snapshot_cache_max_lag;
     double deform_rate = 30.0;
     std::uint64_t snapshot_every = 20000;
+    double snapshot_replay_seconds = server::ServerConfig{}.journal_snapshot_replay_seconds;
     bool batch_broadcasts = false;
     bool batch_hash_per_op = false;
     std::string port_file;
@@ -141,6 +142,7 @@ int serve(const Options& o) {
     std::optional<Terrain> terrain;
     std::uint64_t seq = 0;
     std::optional<journal::RecoveredHistory> history;
+    server::RecoveryReport recovery;
     const auto t0 = std::chrono::steady_clock::now();
     if (!o.no_journal) {
         Result<journal::Durability> durability = journal::parseDurability(o.durability);
@@ -188,6 +190,10 @@ int serve(const Options& o) {
                     static_cast<unsigned long long>(recovered->snapshot_seq),
                     recovered->replayed_records, recovered->torn_bytes_dropped));
             seq = recovered->seq;
+            recovery.snapshot_seq = recovered->snapshot_seq;
+            recovery.replayed_records = recovered->replayed_records;
+            recovery.seconds =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             terrain.emplace(std::move(recovered->terrain));
             history = std::move(recovered->history);
         }
@@ -240,6 +246,7 @@ int serve(const Options& o) {
     config.deform_rate_per_second = o.deform_rate;
     config.deform_burst = 2 * o.deform_rate;
     config.journal_snapshot_every = o.snapshot_every;
+    config.journal_snapshot_replay_seconds = o.snapshot_replay_seconds;
     config.snapshot_cache_max_lag = o.snapshot_cache_lag;
     config.batch_broadcasts = o.batch_broadcasts;
     config.batch_hash_per_op = o.batch_hash_per_op;
@@ -250,6 +257,7 @@ int serve(const Options& o) {
     asio::io_context io(1);
     server::Server srv(io, config, authority, journal ? &*journal : nullptr);
     srv.setLog(log);
+    srv.setRecoveryReport(recovery);
     if (Status s = srv.start(); !s) {
         log->error("server.listen_failed", "terrain-server", s.error().message);
         return 1;
@@ -543,8 +551,20 @@ int main(int argc, char** argv) {
             "it is rebuilt off the network thread every half of this")
         ->envname("TERRAIN_SNAPSHOT_CACHE_LAG")
         ->check(CLI::Range(1, 1 << 24));
-    serve_cmd->add_option("--snapshot-every", o.snapshot_every, "journal snapshot every N ops")
-        ->envname("TERRAIN_SNAPSHOT_EVERY");
+    serve_cmd
+        ->add_option(
+            "--snapshot-replay-seconds", o.snapshot_replay_seconds,
+            "journal snapshot once replaying the ops since the last one would take this long "
+            "(their measured apply time), so a restart replays about this much; 0: off")
+        ->envname("TERRAIN_SNAPSHOT_REPLAY_SECONDS")
+        ->check(CLI::Range(0.0, 3600.0))
+        ->capture_default_str();
+    serve_cmd
+        ->add_option(
+            "--snapshot-every", o.snapshot_every,
+            "journal snapshot every N ops too, whichever rule comes first; 0: off")
+        ->envname("TERRAIN_SNAPSHOT_EVERY")
+        ->capture_default_str();
     serve_cmd->add_option("--port-file", o.port_file, "write the bound port to this file");
 
     CLI::App* token_cmd = app.add_subcommand("token", "mint an access token");

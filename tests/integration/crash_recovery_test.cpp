@@ -14,13 +14,19 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <csignal>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <map>
+#include <optional>
 #include <random>
 #include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 namespace terrain::testing {
 namespace {
@@ -33,13 +39,17 @@ struct ServerProcess {
     std::uint16_t port = 0;
 };
 
-ServerProcess spawnServer(const fs::path& dir, const std::string& tag) {
+ServerProcess spawnServer(
+    const fs::path& dir,
+    const std::string& tag,
+    std::vector<std::string> snapshot_rule = {"--snapshot-every", "150"}) {
     const fs::path port_file = dir / ("port-" + tag);
     fs::remove(port_file);
-    const pid_t pid = spawnServerProcess(
-        {"--port-file", port_file.string(), "--data-dir", (dir / "data").string(), "--size", "129",
-         "--durability", "fsync", "--deform-rate", "100000", "--snapshot-every", "150"},
-        (dir / ("server-" + tag + ".log")).string());
+    std::vector<std::string> args = {
+        "--port-file", port_file.string(), "--data-dir", (dir / "data").string(), "--size",
+        "129",         "--durability",     "fsync",      "--deform-rate",         "100000"};
+    args.insert(args.end(), snapshot_rule.begin(), snapshot_rule.end());
+    const pid_t pid = spawnServerProcess(args, (dir / ("server-" + tag + ".log")).string());
     ServerProcess p;
     p.pid = pid;
     for (int i = 0; i < 1000 && p.port == 0; ++i) {
@@ -51,6 +61,147 @@ ServerProcess spawnServer(const fs::path& dir, const std::string& tag) {
             std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
     return p;
+}
+
+/// The server log's "recovered seq S (snapshot N + R records replayed": {S, R}, or nullopt for
+/// a start that recovered nothing.
+std::optional<std::pair<std::uint64_t, std::uint64_t>> recoveredFromLog(const fs::path& log) {
+    std::ifstream in(log);
+    std::string line;
+    while (std::getline(in, line)) {
+        const std::size_t at = line.find("recovered seq ");
+        if (at == std::string::npos)
+            continue;
+        unsigned long long seq = 0, snapshot = 0, replayed = 0;
+        if (std::sscanf(
+                line.c_str() + at, "recovered seq %llu (snapshot %llu + %llu records replayed",
+                &seq, &snapshot, &replayed) == 3)
+            return std::make_pair(std::uint64_t{seq}, std::uint64_t{replayed});
+    }
+    return std::nullopt;
+}
+
+/// Seqs of the snapshot files in the data directory, ascending.
+std::vector<std::uint64_t> snapshotSeqs(const fs::path& data) {
+    std::vector<std::uint64_t> seqs;
+    for (const auto& entry : fs::directory_iterator(data)) {
+        const std::string name = entry.path().filename().string();
+        if (name.starts_with("snapshot-") && name.ends_with(".trsn"))
+            seqs.push_back(std::stoull(name.substr(9, 20)));
+    }
+    std::sort(seqs.begin(), seqs.end());
+    return seqs;
+}
+
+void killNine(const ServerProcess& p) {
+    ASSERT_EQ(::kill(p.pid, SIGKILL), 0);
+    int status = 0;
+    waitpid(p.pid, &status, 0);
+    ASSERT_TRUE(WIFSIGNALED(status));
+}
+
+void stopCleanly(const ServerProcess& p) {
+    ASSERT_EQ(::kill(p.pid, SIGTERM), 0);
+    int status = 0;
+    waitpid(p.pid, &status, 0);
+    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "SIGTERM must drain cleanly";
+}
+
+/// `count` acknowledged craters from a fresh deformer.
+void deform(std::uint16_t port, int count, std::uint64_t seed) {
+    asio::io_context io;
+    TestClient client(io, port, token(7, Role::kDeformer), false);
+    ASSERT_TRUE(runUntil(io, [&] { return client.replica.ready(); }));
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> pos(3.0, 125.0);
+    for (int i = 0; i < count; ++i)
+        client.connection->requestDeform(
+            OpRequest{OpKind::kCrater, pos(rng), pos(rng), 2.5, 0.8, 0.3});
+    ASSERT_TRUE(runUntil(
+        io, [&] { return client.answers.size() == static_cast<std::size_t>(count); }, 60.0));
+    client.connection->stop();
+}
+
+// FORMAT.md: a clean stop leaves a snapshot at its last seq and the next start replays nothing,
+// after a recovery too; and a recovery that replayed records snapshots at once, so that a second
+// crash does not replay them again. Neither periodic rule is on here.
+TEST(CrashRecovery, RecoveredRecordsAreReplayedOnlyOnce) {
+    const fs::path dir = fs::temp_directory_path() / ("terrain-once-" + std::to_string(getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    const std::vector<std::string> no_rule = {
+        "--snapshot-every", "0", "--snapshot-replay-seconds", "0"};
+    const auto start = [&](const std::string& tag) {
+        ServerProcess p = spawnServer(dir, tag, no_rule);
+        EXPECT_NE(p.port, 0) << "terrain-server did not start; see " << dir;
+        return p;
+    };
+    const auto replayed = [&](const std::string& tag) -> std::uint64_t {
+        auto r = recoveredFromLog(dir / ("server-" + tag + ".log"));
+        EXPECT_TRUE(r.has_value()) << "no recovery line in server-" << tag << ".log";
+        return r ? r->second : ~std::uint64_t{0};
+    };
+
+    ServerProcess a = start("a");
+    ASSERT_NE(a.port, 0);
+    deform(a.port, 40, 1);
+    killNine(a);
+    // kill -9 -> restart -> SIGTERM at once (the recovery's own snapshot may still be in flight)
+    ServerProcess b = start("b");
+    ASSERT_NE(b.port, 0);
+    EXPECT_EQ(replayed("b"), 40u);
+    stopCleanly(b);
+    EXPECT_EQ(snapshotSeqs(dir / "data").back(), 40u);
+    ServerProcess c = start("c");
+    ASSERT_NE(c.port, 0);
+    EXPECT_EQ(replayed("c"), 0u) << "a clean stop after a recovery must leave a snapshot";
+    // more ops, kill -9 -> restart -> kill -9 once the recovery's snapshot is on disk
+    deform(c.port, 30, 2);
+    killNine(c);
+    ServerProcess d = start("d");
+    ASSERT_NE(d.port, 0);
+    EXPECT_EQ(replayed("d"), 30u);
+    for (int i = 0; i < 500 && snapshotSeqs(dir / "data").back() != 70; ++i)
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    ASSERT_EQ(snapshotSeqs(dir / "data").back(), 70u) << "no snapshot after the recovery";
+    killNine(d);
+    ServerProcess e = start("e");
+    ASSERT_NE(e.port, 0);
+    EXPECT_EQ(replayed("e"), 0u);
+    stopCleanly(e);
+    auto verified = journal::verifyJournal(dir / "data");
+    ASSERT_TRUE(verified.ok()) << verified.error().message;
+    EXPECT_EQ(verified->last_seq, 70u);
+    fs::remove_all(dir);
+}
+
+// The time rule alone: snapshots follow the measured apply time of the ops since the last one.
+TEST(CrashRecovery, SnapshotsFollowTheReplayBudget) {
+    const fs::path dir = fs::temp_directory_path() / ("terrain-budget-" + std::to_string(getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    // 2 ms of apply: a few of these craters (each well over 0.02 ms on any machine)
+    ServerProcess p =
+        spawnServer(dir, "a", {"--snapshot-every", "0", "--snapshot-replay-seconds", "0.002"});
+    ASSERT_NE(p.port, 0) << "terrain-server did not start; see " << dir;
+    deform(p.port, 200, 3);
+    std::vector<std::uint64_t> seqs;
+    for (int i = 0; i < 500; ++i) {
+        seqs = snapshotSeqs(dir / "data");
+        if (seqs.back() > 0)
+            break;
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    EXPECT_GT(seqs.back(), 0u) << "no snapshot after 200 ops with a 2 ms replay budget";
+    killNine(p);
+    ServerProcess q = spawnServer(dir, "b", {"--snapshot-every", "0"});
+    ASSERT_NE(q.port, 0);
+    auto r = recoveredFromLog(dir / "server-b.log");
+    ASSERT_TRUE(r.has_value());
+    EXPECT_EQ(r->first, 200u);
+    EXPECT_LT(r->second, 200u);
+    stopCleanly(q);
+    fs::remove_all(dir);
 }
 
 TEST(CrashRecovery, KillNineUnderLoadLosesNoAcknowledgedOp) {

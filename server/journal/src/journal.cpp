@@ -110,6 +110,7 @@ Status Journal::initialize(const Terrain& genesis, std::uint64_t seq) {
     ++stats_.snapshots_written;
     last_seq_ = seq;
     appended_seq_ = seq;
+    snapshot_seq_ = seq;
     ready_ = true;
     return Ok{};
 }
@@ -257,6 +258,7 @@ Result<RecoveredState> Journal::recover(std::size_t retain_records) {
     }
     last_seq_ = seq;
     appended_seq_ = seq;
+    snapshot_seq_ = snapshot_seq;
     ready_ = true;
     RecoveredHistory history = collectHistory(
         listing->segments, seq, terrain.worldHash(), snapshot_seq, snapshot_hash, retain_records,
@@ -369,6 +371,7 @@ Status Journal::writeSnapshot(const Terrain& terrain, std::uint64_t seq) {
     if (auto s = writeSnapshotFile(dir_, terrain, seq); !s)
         return fail(s.error());
     ++stats_.snapshots_written;
+    snapshot_seq_ = std::max(snapshot_seq_, seq);
     if (auto s = startSegmentAfter(seq); !s)
         return s;
     return prune();
@@ -377,6 +380,7 @@ Status Journal::writeSnapshot(const Terrain& terrain, std::uint64_t seq) {
 Status Journal::beginSnapshot(std::uint64_t seq) {
     if (auto s = closeSegmentAt("beginSnapshot", seq); !s)
         return s;
+    snapshot_begun_seq_ = seq;
     return startSegmentAfter(seq);
 }
 
@@ -384,6 +388,7 @@ Status Journal::snapshotWritten(const Status& written) {
     if (!written)
         return written;
     ++stats_.snapshots_written;
+    snapshot_seq_ = std::max(snapshot_seq_, snapshot_begun_seq_);
     if (failure_)
         return *failure_;
     return prune();

@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
 #include <cstring>
 #include <string>
@@ -106,8 +107,14 @@ Status syncDirectory(const std::filesystem::path& dir) {
 }
 
 Status writeFileAtomically(const std::filesystem::path& path, std::span<const std::uint8_t> bytes) {
+    // a temp file per writer: a shutdown's snapshot may be written beside the snapshot thread's
+    // of the same seq, and the rename is atomic either way
+    static std::atomic<std::uint64_t> next_temp{0};
+    std::string suffix = std::to_string(next_temp.fetch_add(1));
+    suffix.insert(suffix.begin(), '.');
+    suffix.append(".tmp");
     std::filesystem::path temp = path;
-    temp += ".tmp";
+    temp += suffix;
     {
         auto file = openFile(temp, O_WRONLY | O_CREAT | O_TRUNC);
         if (!file)

@@ -45,7 +45,12 @@ Status Server::start() {
             !s)
             return s;
     accept();
+    hub_.start();
     return Ok{};
+}
+
+void Server::setRecoveryReport(const RecoveryReport& report) {
+    metrics_->setRecovery(report);
 }
 
 std::uint16_t Server::metricsPort() const {

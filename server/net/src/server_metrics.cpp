@@ -101,6 +101,26 @@ ServerMetrics::ServerMetrics()
                   .Help("1 while serving; 0 once draining or failed")
                   .Register(r)
                   .Add({});
+    const auto gauge = [&](const char* name, const char* help) {
+        return &prometheus::BuildGauge().Name(name).Help(help).Register(r).Add({});
+    };
+    replay_pending_ = gauge(
+        "terrain_journal_replay_pending_seconds",
+        "measured apply time of the durable ops after the last journal snapshot: about what a "
+        "recovery would replay now");
+    recovery_seconds_ = gauge(
+        "terrain_recovery_seconds",
+        "the start-up recovery: snapshot load and replay (0: new world)");
+    recovery_records_ =
+        gauge("terrain_recovery_replayed_records", "records the start-up recovery replayed");
+    recovery_snapshot_seq_ =
+        gauge("terrain_recovery_snapshot_seq", "the snapshot the start-up recovery started from");
+}
+
+void ServerMetrics::setRecovery(const RecoveryReport& report) {
+    recovery_seconds_->Set(report.seconds);
+    recovery_records_->Set(static_cast<double>(report.replayed_records));
+    recovery_snapshot_seq_->Set(static_cast<double>(report.snapshot_seq));
 }
 
 void ServerMetrics::observe(HubTiming timing, double seconds) {
@@ -144,6 +164,7 @@ std::string ServerMetrics::scrape(const ServerHub& hub) {
     queued_bytes_->Set(static_cast<double>(hub.queuedBytes()));
     seq_->Set(static_cast<double>(hub.broadcastSeq()));
     ready_->Set(hub.failed() || hub.shuttingDown() ? 0.0 : 1.0);
+    replay_pending_->Set(hub.replaySecondsSinceSnapshot());
     return prometheus::TextSerializer().Serialize(registry_->Collect());
 }
 

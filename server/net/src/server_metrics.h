@@ -5,6 +5,7 @@
 // pure); histograms are observed by the shell where it times work: a group commit's write and
 // fdatasync, a snapshot build. Private to terrain_server_net.
 
+#include <terrain/server/server.h>
 #include <terrain/server/server_hub.h>
 
 #include <prometheus/counter.h>
@@ -26,6 +27,8 @@ class ServerMetrics {
     /// Any thread.
     void observeCommit(double seconds) { commit_seconds_.Observe(seconds); }
     void observeSnapshotBuild(double seconds) { snapshot_seconds_.Observe(seconds); }
+    /// Once, before serving.
+    void setRecovery(const RecoveryReport& report);
     /// Io thread: the hub's own timings.
     void observe(HubTiming timing, double seconds);
 
@@ -58,6 +61,10 @@ class ServerMetrics {
     prometheus::Gauge* queued_bytes_ = nullptr;
     prometheus::Gauge* seq_ = nullptr;
     prometheus::Gauge* ready_ = nullptr;
+    prometheus::Gauge* replay_pending_ = nullptr;
+    prometheus::Gauge* recovery_seconds_ = nullptr;
+    prometheus::Gauge* recovery_records_ = nullptr;
+    prometheus::Gauge* recovery_snapshot_seq_ = nullptr;
 };
 
 } // namespace terrain::server

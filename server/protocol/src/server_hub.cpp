@@ -14,8 +14,8 @@ ServerHub::ServerHub(
     HubHost& host, ServerConfig config, Authority& authority, journal::Journal* journal)
     : host_(host), config_(std::move(config)), authority_(authority), journal_(journal),
       broadcast_seq_(authority.seq()), broadcast_hash_(authority.terrain().worldHash()),
-      last_journal_snapshot_seq_(authority.seq()), op_frames_(authority.log().capacity()),
-      genesis_hash_(authority.terrain().genesisHash()) {
+      last_journal_snapshot_seq_(journal ? journal->snapshotSeq() : authority.seq()),
+      op_frames_(authority.log().capacity()), genesis_hash_(authority.terrain().genesisHash()) {
     // a log restored after a restart: its ops' broadcast frames, so clients resume from them
     const OpLog& log = authority.log();
     for (std::uint64_t seq = log.resumableFrom() + 1; seq <= log.lastSeq(); ++seq) {
@@ -115,11 +115,13 @@ void ServerHub::submit(
     const std::shared_ptr<SessionMachine>& session,
     std::uint32_t request_id,
     Accepted accepted,
-    double received_at) {
+    double received_at,
+    double apply_seconds) {
     ++stats_.ops_accepted;
     if (journal_)
         journal_->append(journal::JournalRecord{accepted.seq, accepted.op, accepted.world_hash});
-    pending_.push_back(PendingOp{std::move(accepted), session, request_id, received_at});
+    pending_.push_back(
+        PendingOp{std::move(accepted), session, request_id, received_at, apply_seconds});
     scheduleCommit();
 }
 
@@ -229,11 +231,29 @@ void ServerHub::failJournal(const std::string& why) {
     pending_.clear();
 }
 
+void ServerHub::start() {
+    // the records a recovery replayed are in no snapshot yet: without one, every later start
+    // would replay them again
+    if (journal_ && !failed_ && !journal_snapshot_in_flight_ &&
+        last_journal_snapshot_seq_ != broadcast_seq_) {
+        commitPending();
+        if (!failed_ && !journal_snapshot_in_flight_)
+            writeJournalSnapshot();
+    }
+}
+
 void ServerHub::maybeWriteJournalSnapshot() {
     const auto due = [this] {
-        return journal_ && !failed_ && config_.journal_snapshot_every > 0 &&
-               !journal_snapshot_in_flight_ &&
-               broadcast_seq_ - last_journal_snapshot_seq_ >= config_.journal_snapshot_every;
+        if (!journal_ || failed_ || journal_snapshot_in_flight_ ||
+            broadcast_seq_ == last_journal_snapshot_seq_)
+            return false;
+        const bool by_count =
+            config_.journal_snapshot_every > 0 &&
+            broadcast_seq_ - last_journal_snapshot_seq_ >= config_.journal_snapshot_every;
+        const bool by_time =
+            config_.journal_snapshot_replay_seconds > 0 &&
+            replay_seconds_since_snapshot_ >= config_.journal_snapshot_replay_seconds;
+        return by_count || by_time;
     };
     if (!due())
         return;
@@ -263,6 +283,8 @@ void ServerHub::log(LogEvent event) {
 }
 
 void ServerHub::broadcast(std::vector<PendingOp>& ops) {
+    for (const PendingOp& p : ops)
+        replay_seconds_since_snapshot_ += p.apply_seconds;
     if (config_.batch_broadcasts && ops.size() > 1) {
         broadcastBatched(ops);
     } else {
@@ -405,6 +427,7 @@ void ServerHub::writeJournalSnapshot() {
         return;
     }
     last_journal_snapshot_seq_ = broadcast_seq_;
+    replay_seconds_since_snapshot_ = 0.0;
     journal_snapshot_in_flight_ = true;
     auto terrain = std::make_shared<const Terrain>(authority_.terrain());
     host_.runSnapshot(
@@ -467,10 +490,13 @@ void ServerHub::shutdown(std::function<void()> done) {
     shutting_down_ = true;
     host_.stopAccepting();
     commitPending();
-    if (journal_ && !failed_ && broadcast_seq_ != last_journal_snapshot_seq_) {
+    // the newest DURABLE snapshot decides: one begun on the snapshot thread may never be
+    // written (its job is dropped when the server stops), and a recovery's state may be in none
+    if (journal_ && !failed_ && journal_->snapshotSeq() != broadcast_seq_) {
         if (Status s = journal_->writeSnapshot(authority_.terrain(), broadcast_seq_); !s)
             fail("journal snapshot at shutdown failed: " + s.error().message);
         last_journal_snapshot_seq_ = broadcast_seq_;
+        replay_seconds_since_snapshot_ = 0.0;
     }
     shutdown_done_ = std::move(done);
     if (sessions_.empty()) {

@@ -283,8 +283,9 @@ void SessionMachine::onDeform(const pb::DeformRequest& request, double now) {
         sendControl(reply);
         return;
     }
-    hub_.observe(HubTiming::kApply, hub_.clock() - apply_started);
-    hub_.submit(shared_from_this(), request.request_id(), std::move(*accepted), now);
+    const double apply_seconds = hub_.clock() - apply_started;
+    hub_.observe(HubTiming::kApply, apply_seconds);
+    hub_.submit(shared_from_this(), request.request_id(), std::move(*accepted), now, apply_seconds);
 }
 
 void SessionMachine::onHeightQuery(const pb::HeightQuery& query, double now) {

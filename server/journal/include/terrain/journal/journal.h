@@ -189,6 +189,11 @@ class Journal {
     /// Last committed (durable) seq.
     std::uint64_t lastSeq() const { return last_seq_; }
 
+    /// Seq of the newest snapshot known to be durable: initialize()'s, the one recover() started
+    /// from, or the last that writeSnapshot() or a successful snapshotWritten() made. A recovery
+    /// from it replays lastSeq() - snapshotSeq() records; a clean stop makes them equal.
+    std::uint64_t snapshotSeq() const { return snapshot_seq_; }
+
     /// The error that failed the journal, or nullptr while it is usable.
     const Error* failure() const { return failure_ ? &*failure_ : nullptr; }
 
@@ -226,8 +231,10 @@ class Journal {
     std::optional<Error> failure_; // set once; the journal is then failed for good
     std::filesystem::path segment_path_;
     std::uint64_t segment_first_seq_ = 0;
-    std::uint64_t last_seq_ = 0;     // committed
-    std::uint64_t appended_seq_ = 0; // last appended (== last_seq_ when nothing is pending)
+    std::uint64_t last_seq_ = 0;           // committed
+    std::uint64_t appended_seq_ = 0;       // last appended (== last_seq_ when nothing is pending)
+    std::uint64_t snapshot_seq_ = 0;       // newest durable snapshot
+    std::uint64_t snapshot_begun_seq_ = 0; // beginSnapshot()'s, until snapshotWritten()
     std::vector<std::uint8_t> pending_bytes_;
     std::size_t pending_records_ = 0;
     bool batch_out_ = false;
@@ -236,7 +243,8 @@ class Journal {
 
 /// Writes `dir`/snapshot-<seq> of `terrain` atomically (encode, temp file, fdatasync, rename,
 /// fsync of the directory). Touches no Journal: safe on another thread than the journal's, for
-/// the half between beginSnapshot() and snapshotWritten(). Errors: kIo.
+/// the half between beginSnapshot() and snapshotWritten(), and beside a writeSnapshot() of the
+/// same seq (each writer has a temp file of its own; both rename the same bytes). Errors: kIo.
 Status
 writeSnapshotFile(const std::filesystem::path& dir, const Terrain& terrain, std::uint64_t seq);
 

@@ -28,6 +28,13 @@ class ServerMetrics;
 class StatusHttp;
 struct HttpResponse;
 
+/// What the start-up recovery did, for the metrics (terrain_recovery_*).
+struct RecoveryReport {
+    double seconds = 0.0;           ///< journal open to state rebuilt (snapshot load + replay)
+    std::uint64_t snapshot_seq = 0; ///< the snapshot it started from
+    std::uint64_t replayed_records = 0;
+};
+
 class Server : private HubHost {
   public:
     /// `journal` may be null (tests, benchmarks): ops are then acknowledged without durability.
@@ -65,6 +72,8 @@ class Server : private HubHost {
     /// Called on the io thread whenever a batch of ops has been broadcast (benchmarks, logs).
     std::function<void(std::uint64_t seq)> on_broadcast;
     ServerHub& hub() { return hub_; }
+    /// Published as terrain_recovery_seconds, _replayed_records and _snapshot_seq.
+    void setRecoveryReport(const RecoveryReport& report);
     /// Where the server logs (default: text lines on stdout). Set before start().
     void setLog(std::shared_ptr<LogSink> log) { log_ = std::move(log); }
 

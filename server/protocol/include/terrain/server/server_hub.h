@@ -68,7 +68,12 @@ struct ServerConfig {
     /// Group commits on the commit thread, the io thread going on meanwhile (the pipeline);
     /// false: the io thread writes and syncs each group itself (the old way, for comparison).
     bool pipeline_commits = true;
-    /// The journal writes a snapshot every this many ops (0: only on shutdown).
+    /// The journal writes a snapshot once replaying the ops since the last one would take
+    /// about this long: the sum of their measured apply times (0: no time rule). Recovery then
+    /// replays at most this much plus what arrives while the snapshot is written.
+    double journal_snapshot_replay_seconds = 0.5;
+    /// ... or every this many ops, whichever comes first (0: no count rule). With neither rule
+    /// the journal snapshots only on shutdown and after a recovery that replayed records.
     std::uint64_t journal_snapshot_every = 20000;
     std::vector<std::uint8_t> token_secret;
     /// Tests: runs on the snapshot thread before each of its jobs (join snapshot builds,
@@ -113,7 +118,13 @@ class ServerHub {
     /// once with REASON_SERVER_FULL; player slots (max_sessions) are taken at Hello.
     std::shared_ptr<SessionMachine> addSession(std::string peer, double now, SessionLink* link);
 
-    /// Drains: commits pending ops, writes a journal snapshot, says goodbye to every session
+    /// Once the host is up: a recovered state that replayed records goes into a journal
+    /// snapshot at once (off this thread), so a crash before the next one does not replay them
+    /// again.
+    void start();
+
+    /// Drains: commits pending ops, writes a journal snapshot (unless the newest durable one is
+    /// at the last seq already), says goodbye to every session
     /// and calls `done` once they are closed (or when drainTimedOut() is called).
     void shutdown(std::function<void()> done);
     /// The linger time is over: `done` runs now if it has not.
@@ -137,6 +148,9 @@ class ServerHub {
     };
     SessionCounts sessionCounts() const;
     std::uint64_t broadcastSeq() const { return broadcast_seq_; }
+    /// The measured apply time of the durable ops after the last journal snapshot begun: about
+    /// what a recovery would replay now (metrics; the snapshot rule).
+    double replaySecondsSinceSnapshot() const { return replay_seconds_since_snapshot_; }
     /// The world hash after op broadcastSeq(): the state clients see. The authority's own
     /// terrain may be ahead of it by ops not yet committed.
     std::uint64_t broadcastHash() const { return broadcast_hash_; }
@@ -163,11 +177,14 @@ class ServerHub {
     ServerStats& counters() { return stats_; }
     /// An op the authority accepted from `session`: journaled now, broadcast and acknowledged
     /// (DeformReply with `request_id`) once its group commit is durable.
+    /// `apply_seconds`: what the authority's apply took (a replay after a crash costs about as
+    /// much: the journal's snapshot rule).
     void submit(
         const std::shared_ptr<SessionMachine>& session,
         std::uint32_t request_id,
         Accepted accepted,
-        double received_at);
+        double received_at,
+        double apply_seconds);
     /// The host's monotonic clock, and where the hub's timings go (HubHost).
     double clock() const { return host_.monotonicSeconds(); }
     void observe(HubTiming timing, double seconds) { host_.observe(timing, seconds); }
@@ -201,7 +218,8 @@ class ServerHub {
         Accepted accepted;
         std::weak_ptr<SessionMachine> requester;
         std::uint32_t request_id = 0;
-        double received_at = 0.0; ///< when the request was read (the host's clock)
+        double received_at = 0.0;   ///< when the request was read (the host's clock)
+        double apply_seconds = 0.0; ///< the authority's apply
     };
 
     /// Starts a commit of the pending ops once the handlers already ready have run (they join
@@ -245,8 +263,9 @@ class ServerHub {
     std::shared_ptr<CommitInFlight> commit_in_flight_;
     bool commit_scheduled_ = false;
     std::uint64_t broadcast_seq_ = 0;
-    std::uint64_t broadcast_hash_ = 0; ///< after op broadcast_seq_
-    std::uint64_t last_journal_snapshot_seq_ = 0;
+    std::uint64_t broadcast_hash_ = 0;            ///< after op broadcast_seq_
+    std::uint64_t last_journal_snapshot_seq_ = 0; ///< the last begun (or the recovered one)
+    double replay_seconds_since_snapshot_ = 0.0;
     std::vector<wire::Frame> op_frames_; // ring parallel to the authority's op log
     std::uint64_t genesis_hash_ = 0;
     std::array<JoinSnapshot, kSnapshotKinds> join_snapshots_;
