@@ -7,6 +7,8 @@
 // machine its CPU goes to the server (a game's players apply ops on machines of their own).
 // Exit status: 0 when every op was answered and the replica verified; 1 otherwise; 2 on input.
 
+#include "light_deformer.h"
+
 #include <terrain/client/connection.h>
 #include <terrain/client/replica.h>
 #include <terrain/op_script.h>
@@ -22,111 +24,6 @@
 #include <optional>
 #include <sstream>
 #include <string>
-
-namespace {
-
-/// A deformer without a replica: Hello, then requests; reads replies and skips everything else.
-class LightDeformer {
-  public:
-    LightDeformer(
-        asio::io_context& io, const std::string& host, std::uint16_t port, const std::string& token)
-        : socket_(io) {
-        terrain::wire::pb::Envelope e;
-        e.mutable_hello()->set_protocol_version(terrain::wire::kProtocolVersion);
-        e.mutable_hello()->set_token(token);
-        e.mutable_hello()->set_client_name("battle_feed --light");
-        terrain::wire::appendFrame(e, out_);
-        socket_.async_connect(
-            {asio::ip::make_address(host), port}, [this](const asio::error_code& ec) {
-                if (ec)
-                    return fail("connect: " + ec.message());
-                socket_.set_option(asio::ip::tcp::no_delay(true));
-                write();
-                read();
-            });
-    }
-    std::function<void(const terrain::client::DeformAnswer&)> on_reply;
-    bool joined() const { return joined_ && !failed_; }
-    bool failed() const { return failed_; }
-    std::uint64_t opBytes() const { return op_bytes_; }
-    std::uint32_t request(const terrain::DeformOp& op) {
-        terrain::wire::pb::Envelope e;
-        e.mutable_deform()->set_request_id(next_id_);
-        terrain::wire::opToWire(op, *e.mutable_deform()->mutable_canonical());
-        terrain::wire::appendFrame(e, out_);
-        write();
-        return next_id_++;
-    }
-
-  private:
-    void fail(const std::string& why) {
-        if (!failed_)
-            std::fprintf(stderr, "battle_feed --light: %s\n", why.c_str());
-        failed_ = true;
-    }
-    void write() {
-        if (writing_ || out_.empty() || !socket_.is_open())
-            return;
-        writing_ = true;
-        busy_.swap(out_);
-        out_.clear();
-        asio::async_write(socket_, asio::buffer(busy_), [this](const asio::error_code& ec, auto) {
-            writing_ = false;
-            if (ec)
-                return fail("write: " + ec.message());
-            write();
-        });
-    }
-    void read() {
-        const std::span<std::uint8_t> space = reader_.prepare(64 << 10);
-        socket_.async_read_some(
-            asio::buffer(space.data(), space.size()),
-            [this](const asio::error_code& ec, std::size_t n) {
-                if (ec)
-                    return fail("read: " + ec.message());
-                reader_.commit(n);
-                for (;;) {
-                    auto next = reader_.next();
-                    if (!next)
-                        return fail("bad frame: " + next.error().message);
-                    if (!next->has_value())
-                        break;
-                    auto e = terrain::wire::decodeEnvelope(**next);
-                    if (!e)
-                        return fail(e.error().message);
-                    if (e->has_welcome()) {
-                        joined_ = true;
-                    } else if (e->has_op_applied() || e->has_op_batch()) {
-                        op_bytes_ +=
-                            (*next)->size() + terrain::wire::framePrefixSize((*next)->size());
-                    } else if (e->has_deform_reply() && on_reply) {
-                        const auto& r = e->deform_reply();
-                        terrain::client::DeformAnswer a;
-                        a.request_id = r.request_id();
-                        a.accepted =
-                            r.result_case() == terrain::wire::pb::DeformReply::kAcceptedSeq;
-                        a.seq = r.accepted_seq();
-                        on_reply(a);
-                    } else if (e->has_disconnect()) {
-                        return fail("disconnected: " + e->disconnect().message());
-                    }
-                }
-                read();
-            });
-    }
-
-    asio::ip::tcp::socket socket_;
-    terrain::wire::FrameReader reader_{std::size_t{64} << 20};
-    std::vector<std::uint8_t> out_;
-    std::vector<std::uint8_t> busy_;
-    bool writing_ = false;
-    bool joined_ = false;
-    bool failed_ = false;
-    std::uint32_t next_id_ = 1;
-    std::uint64_t op_bytes_ = 0;
-};
-
-} // namespace
 
 int main(int argc, char** argv) {
     using namespace terrain;
@@ -171,7 +68,7 @@ int main(int argc, char** argv) {
     config.token = token;
     config.client_name = "battle_feed";
     auto connection = std::make_shared<client::Connection>(io, config, replica);
-    std::optional<LightDeformer> lightweight;
+    std::optional<bench::LightDeformer> lightweight;
     std::size_t sent = 0;
     std::size_t answered = 0;
     std::size_t accepted = 0;
