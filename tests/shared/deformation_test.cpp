@@ -289,6 +289,56 @@ TEST(PatchDecision, curvaturePrefilterNeverSkipsACellThatNeedsAPatch) {
     EXPECT_GT(needed, 200);
 }
 
+// The square-by-square exhaustive check must give the answer of all 289 points on every cell:
+// rough ground, half of it cratered (regimes, rims, floors and ceilings cross cells), craters of
+// every size, tight and loose tolerances, the default one included. The same answer keeps every
+// world hash (the golden tests guard that too); here the decision itself is compared.
+TEST(PatchDecision, squaresGiveTheAnswerOfEveryPoint) {
+    std::mt19937 rng(91);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    Terrain t = testing::makeHills(17, 130, 130);
+    const WorldSpec& spec = t.spec();
+    CraterSeries earlier;
+    earlier.seed = 4;
+    earlier.count = 120;
+    earlier.min_radius = 1;
+    earlier.max_radius = 10;
+    earlier.depth_ratio = 0.5;
+    earlier.rim_ratio = 0.4;
+    testing::applyAll(t, randomCraters(spec, earlier));
+    int needed = 0;
+    int fits = 0;
+    for (int n = 0; n < 300; ++n) {
+        OpRequest r{
+            OpKind::kCrater, 15 + unit(rng) * 100, 15 + unit(rng) * 100, 0.6 + unit(rng) * 20, 0.0,
+            unit(rng) * 0.6};
+        r.height = r.radius * (0.05 + 0.6 * unit(rng));
+        const DeformOp op = *quantizeOp(r, spec);
+        const PointwiseOp f(op, t);
+        const std::int64_t tol =
+            n % 3 == 0 ? spec.patch_tolerance : 2 + static_cast<std::int64_t>(unit(rng) * 300);
+        const std::int64_t h = spec.spacing;
+        for (int k = 0; k < 20; ++k) {
+            const std::int32_t cx = static_cast<std::int32_t>(
+                (op.center_x / h) + (unit(rng) - 0.5) * 4.4 * op.radius / h);
+            const std::int32_t cy = static_cast<std::int32_t>(
+                (op.center_y / h) + (unit(rng) - 0.5) * 4.4 * op.radius / h);
+            if (cx < 0 || cy < 0 || cx >= spec.cellsX() || cy >= spec.cellsY())
+                continue;
+            const CellCorners co = t.corners(cx, cy);
+            const CellCorners oc = t.originalCorners(cx, cy);
+            const CellCorners cn = cornersAfter(f, t, cx, cy);
+            const bool every = baseCellNeedsPatchEveryPoint(f, cx, cy, co, cn, oc, h, tol);
+            ASSERT_EQ(baseCellNeedsPatchExhaustive(f, cx, cy, co, cn, oc, h, tol), every)
+                << describe(op, spec) << " cell " << cx << "," << cy << " tol " << tol;
+            (every ? needed : fits) += 1;
+        }
+    }
+    // both answers, many times each
+    EXPECT_GT(needed, 500);
+    EXPECT_GT(fits, 1500);
+}
+
 } // namespace
 } // namespace terrain
 

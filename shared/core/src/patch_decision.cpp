@@ -75,34 +75,40 @@ bool patchNeeded(const DetailPatch& p, const CellCorners& c, Diagonal d, std::in
 
 namespace {
 
-// A crater cell: with A = S - z, the change is -limit (A <= -limit), A (-limit <= A <= 0),
-// share * A (0 <= A <= limit) or share * limit (A >= limit). Wherever the bounds below put the
-// whole cell in one of these regimes, the change is the old (linear) surface's plus a smooth
-// term, and that term's curvature bound decides. The bounds are exact for the fixed-point terms:
-// t, the relief and the limit are monotone in the distance on each side of the rim, and the plane
-// and the old triangles take their extremes over the cell at its corners.
-bool craterCellFits(
-    const PointwiseOp& f,
-    std::int32_t cx,
-    std::int32_t cy,
-    const CellCorners& co,
-    const CellCorners& oc,
-    std::int64_t h,
-    std::int64_t room) {
+// A rectangle of a cell, in 1/48 quanta, with the old surface (z) and the original ground at its
+// corners, in the order (x0, y0), (x1, y0), (x0, y1), (x1, y1). Both are linear on each piece
+// of the rectangle that the cell's diagonal leaves (whole cells, and the aligned squares that
+// baseCellNeedsPatchExhaustive() splits them into), so their extremes over it are at the corners.
+struct Rect48 {
+    std::int64_t x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+    std::array<std::int64_t, 4> z{};
+    std::array<std::int64_t, 4> original{};
+};
+
+// A crater over a rectangle: with A = S - z, the change is -limit (A <= -limit), A (-limit <=
+// A <= 0), share * A (0 <= A <= limit) or share * limit (A >= limit). Wherever the bounds below
+// put the whole rectangle in one of these regimes, the change is the old (linear) surface's plus
+// a smooth term, and that term's curvature bound decides: it misses its linear interpolation
+// over the rectangle's triangles (legs `side`) by at most M side^2 / 4 <= room. The bounds are
+// exact for the fixed-point terms: t, the relief and the limit are monotone in the distance on
+// each side of the rim, and the plane and the old triangles take their extremes at the corners.
+bool craterRectFits(const PointwiseOp& f, const Rect48& rect, std::int64_t room) {
     const DeformOp& op = f.op();
     const std::int64_t r = op.radius;
-    const std::int64_t cap = 2 * r + 1;
-    const std::int64_t fx =
-        std::min(cap, std::max(absI64(cx * h - op.center_x), absI64((cx + 1) * h - op.center_x)));
-    const std::int64_t fy =
-        std::min(cap, std::max(absI64(cy * h - op.center_y), absI64((cy + 1) * h - op.center_y)));
+    const std::int64_t cap48 = (2 * r + 1) * kFineScale;
+    const std::int64_t ox = op.center_x * kFineScale;
+    const std::int64_t oy = op.center_y * kFineScale;
+    const std::int64_t fx = std::min(cap48, std::max(absI64(rect.x0 - ox), absI64(rect.x1 - ox)));
+    const std::int64_t fy = std::min(cap48, std::max(absI64(rect.y0 - oy), absI64(rect.y1 - oy)));
     constexpr std::int64_t kOne = kUnitStrength;
-    const std::int64_t near2 = nearestSquared(op, cx, cy, h);
-    if (near2 >= 4 * r * r)
+    const std::int64_t nx = std::clamp(ox, rect.x0, rect.x1) - ox;
+    const std::int64_t ny = std::clamp(oy, rect.y0, rect.y1) - oy;
+    const std::int64_t near2 = nx * nx + ny * ny;
+    const std::int64_t r48 = r * kFineScale;
+    if (near2 >= 4 * r48 * r48)
         return true; // beyond the footprint
-    const std::int64_t t_lo = radiusRatio(op, near2 * kFineScale * kFineScale);
-    const std::int64_t t_hi =
-        std::min(2 * kOne, radiusRatio(op, (fx * fx + fy * fy) * kFineScale * kFineScale));
+    const std::int64_t t_lo = radiusRatio(op, near2);
+    const std::int64_t t_hi = std::min(2 * kOne, radiusRatio(op, fx * fx + fy * fy));
     const bool crosses_rim = t_lo < kOne && t_hi > kOne;
     std::int64_t s_lo = 0;
     std::int64_t s_hi = 0;
@@ -119,13 +125,9 @@ bool craterCellFits(
     const std::int64_t limit_lo = f.limit48(t_hi);
     const std::int64_t limit_hi = f.limit48(t_lo);
     // A = S - z = (plane - z) + s
-    const std::int64_t h48 = h * kFineScale;
-    const std::int64_t x0 = cx * h48;
-    const std::int64_t y0 = cy * h48;
     const std::array<std::int64_t, 4> d = {
-        f.plane48(x0, y0) - co.h00 * kFineScale, f.plane48(x0 + h48, y0) - co.h10 * kFineScale,
-        f.plane48(x0, y0 + h48) - co.h01 * kFineScale,
-        f.plane48(x0 + h48, y0 + h48) - co.h11 * kFineScale};
+        f.plane48(rect.x0, rect.y0) - rect.z[0], f.plane48(rect.x1, rect.y0) - rect.z[1],
+        f.plane48(rect.x0, rect.y1) - rect.z[2], f.plane48(rect.x1, rect.y1) - rect.z[3]};
     // the anchor's share is monotone in t as well
     const std::int64_t anchor_near = f.anchor48(t_lo);
     const std::int64_t anchor_far = f.anchor48(t_hi);
@@ -137,29 +139,29 @@ bool craterCellFits(
     const std::int64_t depth = op.height;
     const std::int64_t rim = ceilDiv(f.rim48(), kFineScale);
     const std::int64_t anchor = ceilDiv(absI64(f.ground().anchor48), kFineScale);
-    const auto h2 = static_cast<std::uint64_t>(h * h);
+    // M side^2 / 4 <= room with side^2 = side48^2 / 48^2: scale side48^2 <= 2 r^2 48^2 room
+    const std::int64_t side48 = rect.x1 - rect.x0;
+    const auto side2 = static_cast<std::uint64_t>(side48 * side48);
+    const auto r2 = static_cast<std::uint64_t>(2 * r48 * r48);
     const auto uroom = static_cast<std::uint64_t>(room);
-    // M h^2 / 4 <= room. The relief: M = 2 (depth + rim) / r^2 in the bowl, 2 rim / r^2 beyond
-    // the rim (never across it: the crease). A term a (1 - r^2 / 4R^2)^2 (the anchor, the
-    // limit): M <= 2 |a| / r^2. Scaling by the share (<= 1) only lowers them.
+    // The relief: M = 2 (depth + rim) / r^2 in the bowl, 2 rim / r^2 beyond the rim (never
+    // across it: the crease). A term a (1 - r^2 / 4R^2)^2 (the anchor, the limit): M <= 2 |a| /
+    // r^2. Scaling by the share (<= 1) only lowers them.
     auto reliefFits = [&] {
         if (crosses_rim)
             return false;
         const std::int64_t scale = (t_hi <= kOne ? depth + rim + 1 : rim + 1) + anchor;
-        return productLessEqual(
-            static_cast<std::uint64_t>(scale), h2, static_cast<std::uint64_t>(2 * r * r), uroom);
+        return productLessEqual(static_cast<std::uint64_t>(scale), side2, r2, uroom);
     };
     auto limitFits = [&] {
-        return productLessEqual(
-            static_cast<std::uint64_t>(depth + rim + 1), h2, static_cast<std::uint64_t>(2 * r * r),
-            uroom);
+        return productLessEqual(static_cast<std::uint64_t>(depth + rim + 1), side2, r2, uroom);
     };
-    // the floor and the ceiling must not bind anywhere in the cell (their clamps are further
-    // regime boundaries): displacement z - original is linear on each triangle, so its
+    // the floor and the ceiling must not bind anywhere in the rectangle (their clamps are
+    // further regime boundaries): displacement z - original is linear on each piece, so its
     // extremes are at the corners
     const std::array<std::int64_t, 4> disp = {
-        (co.h00 - oc.h00) * kFineScale, (co.h10 - oc.h10) * kFineScale,
-        (co.h01 - oc.h01) * kFineScale, (co.h11 - oc.h11) * kFineScale};
+        rect.z[0] - rect.original[0], rect.z[1] - rect.original[1], rect.z[2] - rect.original[2],
+        rect.z[3] - rect.original[3]};
     const std::int64_t disp_lo = *std::min_element(disp.begin(), disp.end());
     const std::int64_t disp_hi = *std::max_element(disp.begin(), disp.end());
     // z' >= z - limit >= original + disp_lo - limit_hi >= floor; z' <= z + fill <= ceiling
@@ -180,7 +182,25 @@ bool craterCellFits(
         return true; // nothing to fill with: untouched
     if (carved || filled || either)
         return reliefFits();
-    return false; // a regime boundary may cross the cell
+    return false; // a regime boundary may cross the rectangle
+}
+
+// The fixed-point profile's slack (quanta): 16.16 radius ratio and tapers, about 3 (|height| +
+// rim + |anchor|) / 2^16 at a point, twice that through an interpolation between points (16
+// leaves a margin), and the rounding of the corner samples.
+std::int64_t profileSlack(const PointwiseOp& f) {
+    const DeformOp& op = f.op();
+    const std::int64_t rim_bound = op.kind == OpKind::kCrater
+                                       ? ceilDiv(f.rim48(), kFineScale)
+                                       : absI64((std::int64_t{op.height} * op.strength) >> 16);
+    const std::int64_t anchor_bound = ceilDiv(absI64(f.ground().anchor48), kFineScale);
+    return 2 + ceilDiv(16 * (2 * absI64(op.height) + rim_bound + anchor_bound), 65536);
+}
+
+// |change| <= limit <= depth + rim everywhere, and so is any interpolation of it
+bool craterSmallEverywhere(const PointwiseOp& f, std::int64_t room) {
+    const std::int64_t rim_bound = ceilDiv(f.rim48(), kFineScale);
+    return 2 * (absI64(f.op().height) + rim_bound + 1) <= room;
 }
 
 } // namespace
@@ -194,25 +214,26 @@ bool curvatureFitsTolerance(
     std::int64_t h,
     std::int64_t tolerance) {
     const DeformOp& op = f.op();
-    // slack for the fixed-point profile (16.16 radius ratio and tapers: about 3 (|height| + rim
-    // + |anchor|) / 2^16 at a point, twice that through the corners' interpolation; 16 leaves a
-    // margin) and the rounding of the corner samples
-    const std::int64_t rim_bound = op.kind == OpKind::kCrater
-                                       ? ceilDiv(f.rim48(), kFineScale)
-                                       : absI64((std::int64_t{op.height} * op.strength) >> 16);
-    const std::int64_t anchor_bound = ceilDiv(absI64(f.ground().anchor48), kFineScale);
-    const std::int64_t slack =
-        2 + ceilDiv(16 * (2 * absI64(op.height) + rim_bound + anchor_bound), 65536);
+    const std::int64_t slack = profileSlack(f);
     if (tolerance <= slack)
         return false;
     const std::int64_t room = tolerance - slack;
     const std::int64_t r = op.radius;
     const auto h2 = static_cast<std::uint64_t>(h * h);
     if (op.kind == OpKind::kCrater) {
-        // |change| <= limit <= depth + rim, and so is the corners' interpolation of it
-        if (2 * (absI64(op.height) + rim_bound + 1) <= room)
+        if (craterSmallEverywhere(f, room))
             return true;
-        return craterCellFits(f, cx, cy, co, oc, h, room);
+        const std::int64_t h48 = h * kFineScale;
+        Rect48 cell;
+        cell.x0 = cx * h48;
+        cell.y0 = cy * h48;
+        cell.x1 = cell.x0 + h48;
+        cell.y1 = cell.y0 + h48;
+        cell.z = {
+            co.h00 * kFineScale, co.h10 * kFineScale, co.h01 * kFineScale, co.h11 * kFineScale};
+        cell.original = {
+            oc.h00 * kFineScale, oc.h10 * kFineScale, oc.h01 * kFineScale, oc.h11 * kFineScale};
+        return craterRectFits(f, cell, room);
     }
     if (op.kind == OpKind::kRaise) {
         // |change - linear interpolation of change| <= 2 |height|
@@ -226,7 +247,35 @@ bool curvatureFitsTolerance(
     return false;
 }
 
-bool baseCellNeedsPatchExhaustive(
+namespace {
+
+// What the exhaustive check asks at one grid point: the op's change there minus the base
+// triangles' change (the linear interpolation of the corners' change), in 1/48 quanta.
+struct CellCheck {
+    const PointwiseOp& f;
+    std::int32_t cx, cy;
+    CellCorners co, delta, oc;
+    Diagonal d;
+    std::int64_t h48, step48;
+    static constexpr std::int64_t kTo48 = kFineScale / kGridSteps;
+
+    std::int64_t old48(int k, int l) const {
+        return kTo48 * baseHeightScaled(co, d, k, l, kGridSteps);
+    }
+    std::int64_t original48(int k, int l) const {
+        return kTo48 * baseHeightScaled(oc, d, k, l, kGridSteps);
+    }
+    std::int64_t error48(int k, int l) const {
+        const std::int64_t old = old48(k, l);
+        const std::int64_t next =
+            f.height(cx * h48 + k * step48, cy * h48 + l * step48, old, original48(k, l));
+        return absI64(next - old - kTo48 * baseHeightScaled(delta, d, k, l, kGridSteps));
+    }
+};
+
+} // namespace
+
+bool baseCellNeedsPatchEveryPoint(
     const PointwiseOp& f,
     std::int32_t cx,
     std::int32_t cy,
@@ -237,21 +286,111 @@ bool baseCellNeedsPatchExhaustive(
     std::int64_t tolerance) {
     if (f.op().kind == OpKind::kSmooth)
         return false; // smoothing a base cell leaves it a base cell
-    const Diagonal d = cellDiagonal(cx, cy);
-    const CellCorners delta{cn.h00 - co.h00, cn.h10 - co.h10, cn.h01 - co.h01, cn.h11 - co.h11};
-    const std::int64_t h48 = h * kFineScale;
-    const std::int64_t step48 = h * (kFineScale / kGridSteps);
-    const std::int64_t to48 = kFineScale / kGridSteps;
+    const CellCheck check{
+        f,
+        cx,
+        cy,
+        co,
+        {cn.h00 - co.h00, cn.h10 - co.h10, cn.h01 - co.h01, cn.h11 - co.h11},
+        oc,
+        cellDiagonal(cx, cy),
+        h * kFineScale,
+        h * (kFineScale / kGridSteps)};
     // coarse to fine, so that a cell which needs a patch is usually found within a few points
-    for (const GridPoint& p : coarseToFine()) {
-        const std::int64_t old48 = to48 * baseHeightScaled(co, d, p.k, p.l, kGridSteps);
-        const std::int64_t original48 = to48 * baseHeightScaled(oc, d, p.k, p.l, kGridSteps);
-        const std::int64_t next48 =
-            f.height(cx * h48 + p.k * step48, cy * h48 + p.l * step48, old48, original48);
-        const std::int64_t linear48 = to48 * baseHeightScaled(delta, d, p.k, p.l, kGridSteps);
-        if (absI64(next48 - old48 - linear48) > tolerance * kFineScale)
+    for (const GridPoint& p : coarseToFine())
+        if (check.error48(p.k, p.l) > tolerance * kFineScale)
             return true;
-    }
+    return false;
+}
+
+bool baseCellNeedsPatchExhaustive(
+    const PointwiseOp& f,
+    std::int32_t cx,
+    std::int32_t cy,
+    const CellCorners& co,
+    const CellCorners& cn,
+    const CellCorners& oc,
+    std::int64_t h,
+    std::int64_t tolerance) {
+    const DeformOp& op = f.op();
+    const std::int64_t slack = profileSlack(f);
+    if (op.kind != OpKind::kCrater || tolerance <= slack)
+        return baseCellNeedsPatchEveryPoint(f, cx, cy, co, cn, oc, h, tolerance);
+    // The same answer as every point, from fewer: the cell in aligned squares (8 steps, then 4),
+    // each skipped when craterRectFits() proves that no point inside it can fail, given the
+    // errors measured at its corners (the interpolation between them is bounded by the largest:
+    // room = tolerance - slack - that). Points where a regime boundary or the rim crease runs
+    // are evaluated one by one, as before. Squares stay on one side of the cell's diagonal or are
+    // halved by it, so the surfaces are linear on their triangles.
+    const CellCheck check{
+        f,
+        cx,
+        cy,
+        co,
+        {cn.h00 - co.h00, cn.h10 - co.h10, cn.h01 - co.h01, cn.h11 - co.h11},
+        oc,
+        cellDiagonal(cx, cy),
+        h * kFineScale,
+        h * (kFineScale / kGridSteps)};
+    const std::int64_t limit48 = tolerance * kFineScale;
+    std::array<std::int64_t, kPatchGridVertices> error{};
+    std::array<bool, kPatchGridVertices> known{};
+    // false when the point fails (the cell needs a patch)
+    auto measure = [&](int k, int l) {
+        const auto i = static_cast<std::size_t>(l * kGridSamples + k);
+        if (!known[i]) {
+            error[i] = check.error48(k, l);
+            known[i] = true;
+        }
+        return error[i] <= limit48;
+    };
+    // the square [k0, k0 + n] x [l0, l0 + n], its corners measured: proven to fit?
+    auto proven = [&](int k0, int l0, int n) {
+        const int k1 = k0 + n;
+        const int l1 = l0 + n;
+        std::int64_t corner = 0;
+        for (const auto& [k, l] : {std::pair{k0, l0}, {k1, l0}, {k0, l1}, {k1, l1}})
+            corner = std::max(corner, error[static_cast<std::size_t>(l * kGridSamples + k)]);
+        const std::int64_t room = tolerance - slack - ceilDiv(corner, kFineScale);
+        if (room <= 0)
+            return false;
+        if (craterSmallEverywhere(f, room))
+            return true;
+        Rect48 rect;
+        rect.x0 = cx * check.h48 + k0 * check.step48;
+        rect.y0 = cy * check.h48 + l0 * check.step48;
+        rect.x1 = cx * check.h48 + k1 * check.step48;
+        rect.y1 = cy * check.h48 + l1 * check.step48;
+        int c = 0;
+        for (const auto& [k, l] : {std::pair{k0, l0}, {k1, l0}, {k0, l1}, {k1, l1}}) {
+            rect.z[static_cast<std::size_t>(c)] = check.old48(k, l);
+            rect.original[static_cast<std::size_t>(c++)] = check.original48(k, l);
+        }
+        return craterRectFits(f, rect, room);
+    };
+    // every point of the square, stride `s`; false when one fails
+    auto measureAll = [&](int k0, int l0, int n, int s) {
+        for (int l = l0; l <= l0 + n; l += s)
+            for (int k = k0; k <= k0 + n; k += s)
+                if (!measure(k, l))
+                    return false;
+        return true;
+    };
+    constexpr int kHalf = kGridSteps / 2;
+    constexpr int kQuarter = kGridSteps / 4;
+    if (!measureAll(0, 0, kGridSteps, kHalf))
+        return true;
+    for (int l0 = 0; l0 < kGridSteps; l0 += kHalf)
+        for (int k0 = 0; k0 < kGridSteps; k0 += kHalf) {
+            if (proven(k0, l0, kHalf))
+                continue;
+            if (!measureAll(k0, l0, kHalf, kQuarter))
+                return true;
+            for (int l1 = l0; l1 < l0 + kHalf; l1 += kQuarter)
+                for (int k1 = k0; k1 < k0 + kHalf; k1 += kQuarter)
+                    if (!proven(k1, l1, kQuarter) && !measureAll(k1, l1, kQuarter, 1))
+                        return true;
+        }
     return false;
 }
 

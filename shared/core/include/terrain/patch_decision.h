@@ -31,8 +31,23 @@ bool baseCellNeedsPatch(
     std::int64_t h,
     std::int64_t tolerance);
 
-/// The exhaustive part of baseCellNeedsPatch alone (for tests of the prefilter).
+/// The exhaustive part of baseCellNeedsPatch alone: the answer of all 289 points. For craters
+/// it measures the points where the cell's aligned squares cannot be proven to fit (the
+/// prefilter's regime and curvature bounds, applied to each square with the errors measured at
+/// its corners) and skips the rest: the same answer as baseCellNeedsPatchEveryPoint() (tested),
+/// from a fraction of the points.
 bool baseCellNeedsPatchExhaustive(
+    const PointwiseOp& op,
+    std::int32_t cx,
+    std::int32_t cy,
+    const CellCorners& co,
+    const CellCorners& cn,
+    const CellCorners& oc,
+    std::int64_t h,
+    std::int64_t tolerance);
+
+/// The reference: every one of the 289 points, coarse to fine (tests; ops other than craters).
+bool baseCellNeedsPatchEveryPoint(
     const PointwiseOp& op,
     std::int32_t cx,
     std::int32_t cy,
