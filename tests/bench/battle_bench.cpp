@@ -20,6 +20,7 @@
 #include <terrain/roam/tessellator.h>
 #include <terrain/snapshot.h>
 #include <terrain/surface_query.h>
+#include <terrain/task_runner.h>
 #include <terrain/terrain.h>
 #include <terrain/wire/compression.h>
 
@@ -99,6 +100,9 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(65, 8193));
     app.add_option("--map-seed", map.seed, "procedural map seed");
     app.add_option("--shots", shots, "shots to fire")->check(CLI::PositiveNumber);
+    unsigned threads = 1;
+    app.add_option("--threads", threads, "Terrain::apply's thread pool (1: the serial path)")
+        ->check(CLI::Range(1, 64));
     app.add_option("--seed", o.seed, "battle seed");
     app.add_option("--zone-x", zone_x, "battle zone centre, metres (default: map centre)");
     app.add_option("--zone-y", zone_y, "battle zone centre, metres (default: map centre)");
@@ -155,6 +159,7 @@ int main(int argc, char** argv) {
     BattleGenerator generator(o);
     testing::BattleWatch watch(t, 2.0 * o.max_radius);
     std::vector<double> apply_ms;
+    ThreadPool pool(threads);
     std::vector<double> aim_ms;
     std::ofstream ops_file;
     if (!ops_path.empty()) {
@@ -184,7 +189,7 @@ int main(int argc, char** argv) {
             continue;
         }
         t0 = bench::Clock::now();
-        auto effect = t.apply(*op);
+        auto effect = t.apply(*op, &pool);
         apply_ms.push_back(bench::msSince(t0));
         if (!effect) {
             ++counts.refused;
@@ -223,6 +228,7 @@ int main(int argc, char** argv) {
     j["counts"] = {
         {"shots", f.shots}, {"craters", f.craters}, {"missed", f.missed}, {"refused", f.refused}};
     j["apply_ms"] = summaryJson(apply);
+    j["threads"] = threads;
     j["aim_ms"] = summaryJson(aim);
     j["seconds"] = total_s;
     j["world_hash"] = [&] {

@@ -4,6 +4,7 @@
 // 8 clients) is `terrain-replay soak`, with its figures in BENCHMARKS.md.
 
 #include "support/terrain_builders.h"
+#include "support/thread_bits.h"
 
 #include <terrain/replay/soak.h>
 #include <terrain/replay/soak_ops.h>
@@ -67,6 +68,27 @@ TEST(SoakOps, TheMixIsSeededAndEachKindIsWhatItSays) {
     EXPECT_NEAR(c.extreme, 200.0, 45.0);
     EXPECT_NEAR(c.invalid, 100.0, 35.0);
     EXPECT_GT(c.battle, 900u);
+}
+
+// The mix (every kind, the rules' extremes, refusals) applied with a thread pool gives the serial
+// path's bits at every op, at 2, 4 and 8 threads.
+TEST(SoakOps, TheMixHasTheSameBitsAtEveryThreadCount) {
+    const Terrain world = smallMap(257);
+    replay::SoakOps mix(11, world.spec());
+    Terrain serial = world;
+    std::vector<std::pair<DeformOp, std::uint64_t>> applied;
+    for (int i = 0; i < 1500; ++i) {
+        const replay::FeedRequest r = mix.next(serial);
+        Result<DeformOp> op = std::holds_alternative<DeformOp>(r)
+                                  ? Result<DeformOp>(std::get<DeformOp>(r))
+                                  : quantizeOp(std::get<OpRequest>(r), serial.spec());
+        if (!op || !serial.apply(*op).ok())
+            continue; // refused: changes nothing on any path
+        applied.emplace_back(*op, serial.worldHash());
+    }
+    ASSERT_GT(applied.size(), 1200u);
+    for (unsigned threads : {2u, 4u, 8u})
+        testing::expectSameBitsWithThreads(world, applied, serial, threads);
 }
 
 TEST(Soak, EveryClientMatchesTheOfflineReplayOfTheServersJournalAtEverySeq) {

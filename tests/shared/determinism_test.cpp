@@ -2,6 +2,7 @@
 // release, debug and sanitizer builds and on every platform.
 
 #include "support/terrain_builders.h"
+#include "support/thread_bits.h"
 
 #include <terrain/battle.h>
 #include <terrain/op_script.h>
@@ -149,6 +150,24 @@ TEST(Determinism, theGoldenBattleReplaysToTheGoldenHash) {
         ASSERT_TRUE(t.apply(op).ok()) << formatCanonicalOp(op);
     EXPECT_EQ(t.worldHash(), g.final_hash) << std::hex << "got " << t.worldHash();
     EXPECT_EQ(t.patchCount(), g.patches);
+}
+
+// Terrain::apply with a thread pool: the world hash after every op of the golden battle, and
+// every tile hash at its end, equal the serial path's at 1, 2, 4 and 8 threads
+TEST(Determinism, theGoldenBattleHasTheSameBitsAtEveryThreadCount) {
+    const GoldenBattle g = readGoldenBattle();
+    auto ops = parseCanonicalOps(readText(TERRAIN_TEST_DATA_DIR "/" + g.ops_file));
+    ASSERT_TRUE(ops.ok()) << ops.error().message;
+    const Terrain start = goldenBattleMap(g);
+    Terrain serial = start;
+    std::vector<std::pair<DeformOp, std::uint64_t>> applied;
+    for (const DeformOp& op : *ops) {
+        ASSERT_TRUE(serial.apply(op).ok()) << formatCanonicalOp(op);
+        applied.emplace_back(op, serial.worldHash());
+    }
+    ASSERT_EQ(serial.worldHash(), g.final_hash);
+    for (unsigned threads : {1u, 2u, 4u, 8u})
+        testing::expectSameBitsWithThreads(start, applied, serial, threads);
 }
 
 // the generator still aims the recorded shots on this platform (it casts rays in doubles, so

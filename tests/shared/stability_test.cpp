@@ -7,6 +7,7 @@
 #include "support/battle_checks.h"
 #include "support/surface_checks.h"
 #include "support/terrain_builders.h"
+#include "support/thread_bits.h"
 
 #include <terrain/battle.h>
 #include <terrain/io/dem_import.h>
@@ -336,10 +337,16 @@ TEST(Stability, barragesOnSteepRealReliefHoldEveryBound) {
         o.max_radius = 6 * h;
         BattleGenerator generator(o);
         testing::BattleWatch watch(t, 2 * o.max_radius);
-        testing::BattleFigures counts = testing::runBattle(t, generator, shots(2000), watch);
+        const Terrain before = t;
+        std::vector<std::pair<DeformOp, std::uint64_t>> applied;
+        testing::BattleFigures counts =
+            testing::runBattle(t, generator, shots(2000), watch, &applied);
         testing::BattleFigures f = watch.figures(t, h, x, y);
         f.refused = counts.refused;
         SCOPED_TRACE(name);
+        // the same bits whatever runs the op's tiles and cells (Terrain::apply's runner)
+        for (unsigned threads : {2u, 8u})
+            testing::expectSameBitsWithThreads(before, applied, t, threads);
         expectBattleBounds(f, o, h);
         std::printf(
             "%s (%.1f m cells) at (%.0f, %.0f) m: rise %.1f m (%.1f above the highest near it), "

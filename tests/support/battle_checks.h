@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace terrain::testing {
@@ -161,9 +162,15 @@ class BattleWatch {
 };
 
 /// Runs `shots` shots of `generator` on `t`, applying each accepted crater; `watch` sees every
-/// op. Returns the counts (figures() fills the rest).
+/// op, and `applied` (when given) records each with the world hash after it. Returns the counts
+/// (figures() fills the rest).
 inline BattleFigures
-runBattle(Terrain& t, BattleGenerator& generator, int shots, BattleWatch& watch) {
+runBattle(
+    Terrain& t,
+    BattleGenerator& generator,
+    int shots,
+    BattleWatch& watch,
+    std::vector<std::pair<DeformOp, std::uint64_t>>* applied = nullptr) {
     BattleFigures f;
     for (int i = 0; i < shots; ++i) {
         const BattleShot shot = generator.next(t);
@@ -183,6 +190,8 @@ runBattle(Terrain& t, BattleGenerator& generator, int shots, BattleWatch& watch)
             continue;
         }
         ++f.craters;
+        if (applied != nullptr)
+            applied->emplace_back(*op, t.worldHash());
         watch.observe(t, *effect);
     }
     return f;

@@ -53,7 +53,7 @@ std::int32_t clampControl(std::int64_t c) {
 
 } // namespace
 
-Result<OpEffect> Terrain::apply(const DeformOp& op) {
+Result<OpEffect> Terrain::apply(const DeformOp& op, TaskRunner* runner) {
     if (auto status = validateOp(op, spec_); !status)
         return status.error();
 
@@ -239,7 +239,9 @@ Result<OpEffect> Terrain::apply(const DeformOp& op) {
                 cell.patch = it->patch;
             }
         }
-    for (std::int32_t cy = cr.y0; cy <= cr.y1; ++cy)
+    // each cell is judged from the state before the op into its own slot: rows in any order
+    auto judgeRow = [&](std::size_t row) {
+        const std::int32_t cy = cr.y0 + static_cast<std::int32_t>(row);
         for (std::int32_t cx = cr.x0; cx <= cr.x1; ++cx) {
             // a cell of the box that the footprint's disc misses keeps its patch as it is
             const std::int64_t nx = std::clamp(op.center_x, cx * h, (cx + 1) * h) - op.center_x;
@@ -260,6 +262,9 @@ Result<OpEffect> Terrain::apply(const DeformOp& op) {
                 cell.has = true;
             }
         }
+    };
+    if (!cr.empty())
+        forEachTask(runner, static_cast<std::size_t>(cr.y1 - cr.y0 + 1), 4, judgeRow);
 
     // 3. borders facing base cells go straight; patches the base now holds are dropped
     std::vector<std::int32_t> queue;
@@ -318,6 +323,11 @@ Result<OpEffect> Terrain::apply(const DeformOp& op) {
             }
         }
     std::vector<PatchChange> changes;
+    struct Bounded {
+        std::size_t change;
+        std::int32_t cx, cy;
+    };
+    std::vector<Bounded> bounded; // kept patches, bounded below over their new corners
     for (std::int32_t cy = er.y0; cy <= er.y1; ++cy)
         for (std::int32_t cx = er.x0; cx <= er.x1; ++cx) {
             LocalCell& cell = at(cx, cy);
@@ -328,9 +338,9 @@ Result<OpEffect> Terrain::apply(const DeformOp& op) {
                 continue;
             PatchChange change{tileOfCell(cx, cy), localCell(cx, cy), !cell.has, {}};
             if (cell.has) {
-                updateBounds(cell.patch, corners(cx, cy));
                 (old == nullptr ? effect.patches_created : effect.patches_changed) += 1;
                 change.patch = cell.patch;
+                bounded.push_back({changes.size(), cx, cy});
             } else {
                 ++effect.patches_removed;
             }
@@ -341,16 +351,21 @@ Result<OpEffect> Terrain::apply(const DeformOp& op) {
                 std::min(effect.cells.x0, cx), std::min(effect.cells.y0, cy),
                 std::max(effect.cells.x1, cx), std::max(effect.cells.y1, cy)};
         }
+    forEachTask(runner, bounded.size(), 16, [&](std::size_t i) {
+        const Bounded& b = bounded[i];
+        updateBounds(changes[b.change].patch, corners(b.cx, b.cy));
+    });
     std::sort(changes.begin(), changes.end(), [](const PatchChange& a, const PatchChange& b) {
         return a.tile != b.tile ? a.tile < b.tile : a.cell < b.cell;
     });
-    applyPatchChanges(changes);
+    applyPatchChanges(changes, runner);
     std::sort(effect.dirty_tiles.begin(), effect.dirty_tiles.end());
     effect.dirty_tiles.erase(
         std::unique(effect.dirty_tiles.begin(), effect.dirty_tiles.end()),
         effect.dirty_tiles.end());
-    for (std::int32_t tile : effect.dirty_tiles)
-        rehashTile(tile);
+    forEachTask(runner, effect.dirty_tiles.size(), 2, [&](std::size_t i) {
+        rehashTile(effect.dirty_tiles[i]);
+    });
     if (!effect.dirty_tiles.empty())
         rehashWorld();
     return effect;

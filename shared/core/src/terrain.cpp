@@ -80,33 +80,58 @@ const DetailPatch* Terrain::findPatch(std::int32_t cx, std::int32_t cy) const {
     return (it != patches.end() && it->cell == cell) ? &it->patch : nullptr;
 }
 
-void Terrain::applyPatchChanges(std::span<const PatchChange> changes) {
-    for (std::size_t first = 0; first < changes.size();) {
-        std::size_t last = first;
-        while (last < changes.size() && changes[last].tile == changes[first].tile)
-            ++last;
-        auto& patches = tiles_[static_cast<std::size_t>(changes[first].tile)].patches;
-        std::vector<PatchEntry>& merged = merge_scratch_;
-        merged.clear();
-        merged.reserve(patches.size() + (last - first));
-        auto old = patches.begin();
-        for (std::size_t c = first; c < last; ++c) {
-            const PatchChange& change = changes[c];
-            while (old != patches.end() && old->cell < change.cell)
-                merged.push_back(*old++);
-            const bool present = old != patches.end() && old->cell == change.cell;
-            if (present)
-                ++old;
-            if (!change.erase)
-                merged.push_back(PatchEntry{change.cell, change.patch});
-            patch_count_ = patch_count_ + (change.erase ? 0 : 1) - (present ? 1 : 0);
-        }
-        merged.insert(merged.end(), old, patches.end());
-        // copied back rather than swapped: a tile keeps a buffer of its own size, not the
-        // scratch's (memoryUsage counts capacity)
-        patches.assign(merged.begin(), merged.end());
-        first = last;
+std::ptrdiff_t Terrain::mergeTilePatches(
+    std::vector<PatchEntry>& patches,
+    std::span<const PatchChange> changes,
+    std::vector<PatchEntry>& merged) {
+    merged.clear();
+    merged.reserve(patches.size() + changes.size());
+    std::ptrdiff_t delta = 0;
+    auto old = patches.begin();
+    for (const PatchChange& change : changes) {
+        while (old != patches.end() && old->cell < change.cell)
+            merged.push_back(*old++);
+        const bool present = old != patches.end() && old->cell == change.cell;
+        if (present)
+            ++old;
+        if (!change.erase)
+            merged.push_back(PatchEntry{change.cell, change.patch});
+        delta += (change.erase ? 0 : 1) - (present ? 1 : 0);
     }
+    merged.insert(merged.end(), old, patches.end());
+    // copied back rather than swapped: a tile keeps a buffer of its own size, not the scratch's
+    // (memoryUsage counts capacity)
+    patches.assign(merged.begin(), merged.end());
+    return delta;
+}
+
+void Terrain::applyPatchChanges(std::span<const PatchChange> changes, TaskRunner* runner) {
+    std::vector<std::size_t> starts; // each tile's first change
+    for (std::size_t c = 0; c < changes.size(); ++c)
+        if (c == 0 || changes[c].tile != changes[c - 1].tile)
+            starts.push_back(c);
+    starts.push_back(changes.size());
+    const std::size_t groups = starts.size() - 1;
+    auto group = [&](std::size_t g) {
+        return changes.subspan(starts[g], starts[g + 1] - starts[g]);
+    };
+    if (runner == nullptr || runner->threads() <= 1 || groups < 2) {
+        for (std::size_t g = 0; g < groups; ++g) {
+            const auto tile = static_cast<std::size_t>(changes[starts[g]].tile);
+            patch_count_ = static_cast<std::size_t>(
+                static_cast<std::ptrdiff_t>(patch_count_) +
+                mergeTilePatches(tiles_[tile].patches, group(g), merge_scratch_));
+        }
+        return;
+    }
+    std::vector<std::ptrdiff_t> deltas(groups);
+    runner->run(groups, [&](std::size_t g) {
+        std::vector<PatchEntry> merged;
+        const auto tile = static_cast<std::size_t>(changes[starts[g]].tile);
+        deltas[g] = mergeTilePatches(tiles_[tile].patches, group(g), merged);
+    });
+    for (std::ptrdiff_t d : deltas)
+        patch_count_ = static_cast<std::size_t>(static_cast<std::ptrdiff_t>(patch_count_) + d);
 }
 
 void Terrain::appendTileBytes(std::int32_t tile, std::vector<std::uint8_t>& out) const {

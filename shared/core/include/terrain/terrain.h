@@ -5,6 +5,7 @@
 // by applying the same DeformOps.
 // Pure: no I/O, no clocks, no globals. Not thread safe; one owner mutates it.
 
+#include <terrain/task_runner.h>
 #include <terrain/deform_op.h>
 #include <terrain/detail_patch.h>
 #include <terrain/result.h>
@@ -115,7 +116,10 @@ class Terrain {
     std::uint64_t computeWorldHash() const;
 
     /// Validates and applies one op. On error nothing changes. Defined in deformation.cpp.
-    Result<OpEffect> apply(const DeformOp& op);
+    /// With a `runner`, the op's cells are judged, its patches bounded and merged and its tiles
+    /// hashed on the runner's threads: each task writes only its own cells or tile, so the bits
+    /// are those of the serial path (tested at 1 to 8 threads).
+    Result<OpEffect> apply(const DeformOp& op, TaskRunner* runner = nullptr);
 
     /// Canonical little-endian bytes of tile t: the input of its hash and a snapshot chunk.
     /// Layout: u32 tile x, u32 tile y, 65 x 65 i32 samples row-major, 65 x 65 i32 displacements
@@ -182,9 +186,16 @@ class Terrain {
         bool erase = false;
         DetailPatch patch;
     };
+    /// One tile's patches with its sorted changes merged in, through `merged`; returns the
+    /// change in the tile's patch count.
+    static std::ptrdiff_t mergeTilePatches(
+        std::vector<PatchEntry>& patches,
+        std::span<const PatchChange> changes,
+        std::vector<PatchEntry>& merged);
     /// Applies changes sorted by (tile, cell), merging each tile's list once: a battle zone's
     /// tiles hold thousands of patches, and one insert at a time moved them all each time.
-    void applyPatchChanges(std::span<const PatchChange> changes);
+    /// The tiles on `runner` when there are several.
+    void applyPatchChanges(std::span<const PatchChange> changes, TaskRunner* runner = nullptr);
     void rehashTile(std::int32_t tile);
     /// XXH3-64 of appendTileBytes(tile), without building the bytes; with `genesis`, of the
     /// bytes the tile had at creation (samples = original ground, no displacement, no patches).
