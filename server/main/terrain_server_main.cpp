@@ -12,6 +12,7 @@
 #include <terrain/server/authority.h>
 #include <terrain/server/recovery_status.h>
 #include <terrain/server/server.h>
+#include <terrain/task_runner.h>
 #include <terrain/wire/codec.h>
 #include <terrain/wire/framing.h>
 
@@ -60,6 +61,7 @@ struct Options {
     double deform_rate = 30.0;
     std::uint64_t snapshot_every = 20000;
     double snapshot_replay_seconds = server::ServerConfig{}.journal_snapshot_replay_seconds;
+    unsigned apply_threads = ThreadPool::hardwareThreads();
     bool batch_broadcasts = false;
     bool batch_hash_per_op = false;
     std::string port_file;
@@ -138,6 +140,8 @@ int serve(const Options& o) {
         }
         recovering = std::move(*status);
     }
+    // an op's cells and tiles on these threads, the io thread among them (recovery's replay too)
+    ThreadPool apply_pool(o.apply_threads);
     std::optional<journal::Journal> journal;
     std::optional<Terrain> terrain;
     std::uint64_t seq = 0;
@@ -150,8 +154,9 @@ int serve(const Options& o) {
             log->error("config.durability", "terrain-server", durability.error().message);
             return 2;
         }
-        Result<journal::Journal> opened =
-            journal::Journal::open(o.data_dir, {*durability, 2, o.op_log});
+        journal::JournalOptions journal_options{*durability, 2, o.op_log};
+        journal_options.apply_runner = &apply_pool;
+        Result<journal::Journal> opened = journal::Journal::open(o.data_dir, journal_options);
         if (!opened) {
             log->error("journal.open_failed", "terrain-server", opened.error().message);
             return 1;
@@ -212,7 +217,7 @@ int serve(const Options& o) {
     const double load_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     const WorldSpec spec = terrain->spec();
-    server::Authority authority(std::move(*terrain), seq, o.op_log);
+    server::Authority authority(std::move(*terrain), seq, o.op_log, &apply_pool);
     if (history) {
         // the retained log as it was: clients a few ops behind resume across the restart
         std::vector<server::LoggedOp> ops;
@@ -558,6 +563,14 @@ int main(int argc, char** argv) {
             "(their measured apply time), so a restart replays about this much; 0: off")
         ->envname("TERRAIN_SNAPSHOT_REPLAY_SECONDS")
         ->check(CLI::Range(0.0, 3600.0))
+        ->capture_default_str();
+    serve_cmd
+        ->add_option(
+            "--apply-threads", o.apply_threads,
+            "threads an op's cells and tiles are applied on, the network thread among them (the "
+            "same bits at any count); default: the machine's hardware threads")
+        ->envname("TERRAIN_APPLY_THREADS")
+        ->check(CLI::Range(1, 256))
         ->capture_default_str();
     serve_cmd
         ->add_option(

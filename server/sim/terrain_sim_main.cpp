@@ -9,6 +9,7 @@
 #include <terrain/op_script.h>
 #include <terrain/procedural_map.h>
 #include <terrain/snapshot.h>
+#include <terrain/task_runner.h>
 #include <terrain/terrain.h>
 
 #include <CLI/CLI.hpp>
@@ -103,6 +104,11 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(1, 64));
     app.add_option("--json", json_path, "also write the report as JSON to this file");
     app.add_flag("--no-images", no_images, "skip the PNGs");
+    unsigned threads = 1;
+    app.add_option(
+           "--threads", threads, "threads an op's cells and tiles are spread over (the same bits)")
+        ->check(CLI::Range(1, 256))
+        ->capture_default_str();
     CLI11_PARSE(app, argc, argv);
 
     terrain::io::DemImportOptions import_options;
@@ -215,6 +221,7 @@ int main(int argc, char** argv) {
     int refused = 0;
     std::int64_t created = 0;
     std::int64_t removed = 0;
+    terrain::ThreadPool pool(threads);
     const auto ops_start = Clock::now();
     for (std::size_t i = 0; i < requests.size(); ++i) {
         auto op = terrain::quantizeOp(requests[i], spec);
@@ -226,7 +233,7 @@ int main(int argc, char** argv) {
             continue;
         }
         const auto start = Clock::now();
-        auto effect = t.apply(*op);
+        auto effect = t.apply(*op, &pool);
         op_ms.push_back(msSince(start));
         if (!effect) {
             ++refused;

@@ -3,6 +3,7 @@
 #include <terrain/client/replica.h>
 #include <terrain/procedural_map.h>
 #include <terrain/snapshot.h>
+#include <terrain/task_runner.h>
 
 #include <gtest/gtest.h>
 
@@ -55,6 +56,26 @@ TEST(Replica, AppliesInOrderIgnoresStaleAndRefusesGaps) {
     EXPECT_LT(dirty.cells[0].x1 - dirty.cells[0].x0, kTileCells) << "a tile, not the op's cells";
     EXPECT_TRUE(dirty.tiles.empty());
     EXPECT_TRUE(r.takeDirty().cells.empty());
+}
+
+// A replica applying on a thread pool verifies every hash of a serial server's ops.
+TEST(Replica, OpsAppliedOnAThreadPoolVerifyTheSerialServersHashes) {
+    Terrain server = map();
+    ThreadPool pool(4);
+    Replica r;
+    r.setApplyRunner(&pool);
+    r.loadSnapshot(snapshotOf(server, 0));
+    for (std::uint64_t seq = 1; seq <= 60; ++seq) {
+        const DeformOp op = crater(
+            20 + static_cast<double>((seq * 37) % 80), 20 + static_cast<double>((seq * 53) % 80),
+            server.spec());
+        ASSERT_TRUE(server.apply(op).ok());
+        auto out = r.applyOp(seq, op, server.worldHash());
+        ASSERT_TRUE(out.ok()) << out.error().message;
+        ASSERT_EQ(*out, Replica::OpOutcome::kApplied) << "seq " << seq;
+    }
+    EXPECT_EQ(r.verifiedSeq(), 60u);
+    EXPECT_FALSE(r.diverged());
 }
 
 TEST(Replica, DivergenceIsDetectedAndRepairedFromTileState) {

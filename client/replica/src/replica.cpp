@@ -33,7 +33,7 @@ Replica::applyOp(std::uint64_t seq, const DeformOp& op, std::optional<std::uint6
         return makeError(
             ErrorCode::kOutOfRange, "op seq " + std::to_string(seq) + " arrived on top of seq " +
                                         std::to_string(seq_) + " (a gap)");
-    Result<OpEffect> effect = terrain_->apply(op);
+    Result<OpEffect> effect = terrain_->apply(op, runner_);
     if (!effect)
         return effect.error();
     seq_ = seq;

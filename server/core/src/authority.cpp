@@ -5,8 +5,10 @@
 
 namespace terrain::server {
 
-Authority::Authority(Terrain terrain, std::uint64_t seq, std::size_t log_capacity)
-    : terrain_(std::move(terrain)), seq_(seq), log_(log_capacity, seq, terrain_.worldHash()) {}
+Authority::Authority(
+    Terrain terrain, std::uint64_t seq, std::size_t log_capacity, TaskRunner* runner)
+    : terrain_(std::move(terrain)), seq_(seq), log_(log_capacity, seq, terrain_.worldHash()),
+      runner_(runner) {}
 
 Result<Accepted> Authority::apply(const OpRequest& request) {
     Result<DeformOp> op = quantizeOp(request, terrain_.spec());
@@ -16,7 +18,7 @@ Result<Accepted> Authority::apply(const OpRequest& request) {
 }
 
 Result<Accepted> Authority::apply(const DeformOp& op) {
-    Result<OpEffect> effect = terrain_.apply(op); // validates first; refusals change nothing
+    Result<OpEffect> effect = terrain_.apply(op, runner_); // validates first; refusals change nothing
     if (!effect)
         return effect.error();
     ++seq_;

@@ -227,7 +227,8 @@ Result<RecoveredState> Journal::recover(std::size_t retain_records) {
     const std::uint64_t snapshot_seq = base->sequence;
     Terrain terrain = std::move(base->terrain);
     const std::uint64_t snapshot_hash = terrain.worldHash();
-    auto replay = detail::replaySegments(listing->segments, snapshot_seq, terrain, nullptr);
+    auto replay = detail::replaySegments(
+        listing->segments, snapshot_seq, terrain, nullptr, options_.apply_runner);
     if (!replay)
         return replay.error();
 

@@ -147,8 +147,9 @@ Status replayRecord(
     Terrain& terrain,
     const JournalRecord& record,
     const std::filesystem::path& file,
-    std::size_t offset) {
-    auto effect = terrain.apply(record.op);
+    std::size_t offset,
+    TaskRunner* runner) {
+    auto effect = terrain.apply(record.op, runner);
     if (!effect)
         return makeError(
             effect.error().code, at(file, offset) + "seq " + std::to_string(record.seq) +
@@ -168,7 +169,8 @@ Result<ReplayResult> replaySegments(
     const std::vector<DirFile>& segments,
     std::uint64_t base_seq,
     Terrain& terrain,
-    const AfterRecord& after) {
+    const AfterRecord& after,
+    TaskRunner* runner) {
     ReplayResult result;
     result.last_seq = base_seq;
     const std::size_t first = firstSegmentAfter(segments, base_seq);
@@ -211,7 +213,7 @@ Result<ReplayResult> replaySegments(
                             " differs from the snapshot's " + hex64(terrain.worldHash()));
                 continue;
             }
-            if (auto s = replayRecord(terrain, record, file.path, offset); !s)
+            if (auto s = replayRecord(terrain, record, file.path, offset, runner); !s)
                 return s.error();
             result.last_seq = record.seq;
             ++result.replayed;

@@ -82,7 +82,8 @@ Result<ReplayResult> replaySegments(
     const std::vector<DirFile>& segments,
     std::uint64_t base_seq,
     Terrain& terrain,
-    const AfterRecord& after);
+    const AfterRecord& after,
+    TaskRunner* runner = nullptr);
 
 /// "1a2b..." (16 hex digits).
 std::string hex64(std::uint64_t value);

@@ -42,6 +42,10 @@ class Replica {
         kDiverged, ///< applied, but the hash differs: call repair with suspectTiles()
     };
 
+    /// Ops apply on `runner` from now on (not owned; null: serially, the default). The bits are
+    /// the same either way; a game picks the threads it can spare beside its frame.
+    void setApplyRunner(TaskRunner* runner) { runner_ = runner; }
+
     /// True once a snapshot was loaded.
     bool ready() const { return terrain_.has_value(); }
     std::uint64_t seq() const { return seq_; }
@@ -106,6 +110,7 @@ class Replica {
     void markTile(std::int32_t tile);
 
     std::optional<Terrain> terrain_;
+    TaskRunner* runner_ = nullptr;
     mutable std::optional<std::uint64_t> genesis_hash_; // cache: it hashes the whole map
     std::uint64_t seq_ = 0;
     std::uint64_t verified_seq_ = 0;

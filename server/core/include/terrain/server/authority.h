@@ -25,7 +25,12 @@ struct Accepted {
 class Authority {
   public:
     /// Starts from `terrain` at `seq` (0 for a fresh world, the journal's last seq on restart).
-    Authority(Terrain terrain, std::uint64_t seq, std::size_t log_capacity);
+    /// Ops apply on `runner` (not owned; null: serially): the same bits either way.
+    Authority(
+        Terrain terrain,
+        std::uint64_t seq,
+        std::size_t log_capacity,
+        TaskRunner* runner = nullptr);
 
     /// Validates (quantizeOp) and applies. On refusal nothing changes and seq stays.
     Result<Accepted> apply(const OpRequest& request);
@@ -48,6 +53,7 @@ class Authority {
     Terrain terrain_;
     std::uint64_t seq_;
     OpLog log_;
+    TaskRunner* runner_ = nullptr;
 };
 
 } // namespace terrain::server

@@ -49,6 +49,9 @@ struct JournalOptions {
     /// Tests and benchmarks: runs before each group commit's fdatasync (on the thread that
     /// syncs), to hold a commit or to stand for a slower disk.
     std::function<void()> before_sync = nullptr;
+    /// recover() replays through Terrain::apply on this runner (the server's apply threads);
+    /// null: serially. The bits are the same either way.
+    TaskRunner* apply_runner = nullptr;
 };
 
 /// The last durable ops before a recovered state, for a server's retained log: a client a few
