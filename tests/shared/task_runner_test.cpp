@@ -21,9 +21,8 @@ TEST(ThreadPool, EveryTaskOfEveryJobRunsOnceAndIsDoneWhenRunReturns) {
                 std::vector<std::atomic<int>> runs(count);
                 pool.run(count, [&](std::size_t i) { runs[i].fetch_add(1); });
                 for (std::size_t i = 0; i < count; ++i)
-                    ASSERT_EQ(runs[i].load(), 1)
-                        << threads << " threads, " << count << " tasks, job " << job << ", task "
-                        << i;
+                    ASSERT_EQ(runs[i].load(), 1) << threads << " threads, " << count
+                                                 << " tasks, job " << job << ", task " << i;
             }
         }
     }

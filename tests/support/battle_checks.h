@@ -164,8 +164,7 @@ class BattleWatch {
 /// Runs `shots` shots of `generator` on `t`, applying each accepted crater; `watch` sees every
 /// op, and `applied` (when given) records each with the world hash after it. Returns the counts
 /// (figures() fills the rest).
-inline BattleFigures
-runBattle(
+inline BattleFigures runBattle(
     Terrain& t,
     BattleGenerator& generator,
     int shots,

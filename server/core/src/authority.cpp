@@ -18,7 +18,8 @@ Result<Accepted> Authority::apply(const OpRequest& request) {
 }
 
 Result<Accepted> Authority::apply(const DeformOp& op) {
-    Result<OpEffect> effect = terrain_.apply(op, runner_); // validates first; refusals change nothing
+    Result<OpEffect> effect =
+        terrain_.apply(op, runner_); // validates first; refusals change nothing
     if (!effect)
         return effect.error();
     ++seq_;

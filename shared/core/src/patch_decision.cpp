@@ -164,10 +164,13 @@ bool craterRectFits(const PointwiseOp& f, const Rect48& rect, std::int64_t room)
         rect.z[3] - rect.original[3]};
     const std::int64_t disp_lo = *std::min_element(disp.begin(), disp.end());
     const std::int64_t disp_hi = *std::max_element(disp.begin(), disp.end());
-    // z' >= z - limit >= original + disp_lo - limit_hi >= floor; z' <= z + fill <= ceiling
+    // z' >= z - limit >= original + disp_lo - limit_hi >= floor; z' <= z + fill <= ceiling,
+    // the fill being share * min(A, limit) (rounded down)
     if (disp_lo - limit_hi < f.floor48(0))
         return false;
-    if (disp_hi + std::max<std::int64_t>(0, std::min(limit_hi, a_hi)) > f.ceiling48(0))
+    const std::int64_t fill_hi =
+        (std::max<std::int64_t>(0, std::min(limit_hi, a_hi)) * f.ground().ejecta_share) >> 16;
+    if (disp_hi + fill_hi > f.ceiling48(0))
         return false;
     const bool whole_share = f.ground().ejecta_share == kUnitStrength;
     if (a_hi + limit_hi <= 0)

@@ -58,9 +58,9 @@ class ThreadPool final : public TaskRunner {
     std::vector<std::thread> workers_;
     std::mutex mutex_;
     std::condition_variable wake_;
-    Job* job_ = nullptr;         ///< guarded by mutex_: the job being handed out, if any
+    Job* job_ = nullptr; ///< guarded by mutex_: the job being handed out, if any
     std::atomic<std::size_t> generation_{0}; ///< bumped per job (under mutex_ too)
-    bool stop_ = false;          ///< guarded by mutex_
+    bool stop_ = false;                      ///< guarded by mutex_
 };
 
 } // namespace terrain

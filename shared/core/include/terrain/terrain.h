@@ -5,10 +5,10 @@
 // by applying the same DeformOps.
 // Pure: no I/O, no clocks, no globals. Not thread safe; one owner mutates it.
 
-#include <terrain/task_runner.h>
 #include <terrain/deform_op.h>
 #include <terrain/detail_patch.h>
 #include <terrain/result.h>
+#include <terrain/task_runner.h>
 #include <terrain/world_spec.h>
 
 #include <cstddef>

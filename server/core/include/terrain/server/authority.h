@@ -27,10 +27,7 @@ class Authority {
     /// Starts from `terrain` at `seq` (0 for a fresh world, the journal's last seq on restart).
     /// Ops apply on `runner` (not owned; null: serially): the same bits either way.
     Authority(
-        Terrain terrain,
-        std::uint64_t seq,
-        std::size_t log_capacity,
-        TaskRunner* runner = nullptr);
+        Terrain terrain, std::uint64_t seq, std::size_t log_capacity, TaskRunner* runner = nullptr);
 
     /// Validates (quantizeOp) and applies. On refusal nothing changes and seq stays.
     Result<Accepted> apply(const OpRequest& request);
