@@ -262,6 +262,26 @@ struct CellCheck {
     std::int64_t h48, step48;
     static constexpr std::int64_t kTo48 = kFineScale / kGridSteps;
 
+    static CellCheck make(
+        const PointwiseOp& f,
+        std::int32_t cx,
+        std::int32_t cy,
+        const CellCorners& co,
+        const CellCorners& cn,
+        const CellCorners& oc,
+        std::int64_t h) {
+        return {
+            f,
+            cx,
+            cy,
+            co,
+            {cn.h00 - co.h00, cn.h10 - co.h10, cn.h01 - co.h01, cn.h11 - co.h11},
+            oc,
+            cellDiagonal(cx, cy),
+            h * kFineScale,
+            h * (kFineScale / kGridSteps)};
+    }
+
     std::int64_t old48(int k, int l) const {
         return kTo48 * baseHeightScaled(co, d, k, l, kGridSteps);
     }
@@ -289,16 +309,7 @@ bool baseCellNeedsPatchEveryPoint(
     std::int64_t tolerance) {
     if (f.op().kind == OpKind::kSmooth)
         return false; // smoothing a base cell leaves it a base cell
-    const CellCheck check{
-        f,
-        cx,
-        cy,
-        co,
-        {cn.h00 - co.h00, cn.h10 - co.h10, cn.h01 - co.h01, cn.h11 - co.h11},
-        oc,
-        cellDiagonal(cx, cy),
-        h * kFineScale,
-        h * (kFineScale / kGridSteps)};
+    const CellCheck check = CellCheck::make(f, cx, cy, co, cn, oc, h);
     // coarse to fine, so that a cell which needs a patch is usually found within a few points
     for (const GridPoint& p : coarseToFine())
         if (check.error48(p.k, p.l) > tolerance * kFineScale)
@@ -325,16 +336,7 @@ bool baseCellNeedsPatchExhaustive(
     // room = tolerance - slack - that). Points where a regime boundary or the rim crease runs
     // are evaluated one by one, as before. Squares stay on one side of the cell's diagonal or are
     // halved by it, so the surfaces are linear on their triangles.
-    const CellCheck check{
-        f,
-        cx,
-        cy,
-        co,
-        {cn.h00 - co.h00, cn.h10 - co.h10, cn.h01 - co.h01, cn.h11 - co.h11},
-        oc,
-        cellDiagonal(cx, cy),
-        h * kFineScale,
-        h * (kFineScale / kGridSteps)};
+    const CellCheck check = CellCheck::make(f, cx, cy, co, cn, oc, h);
     const std::int64_t limit48 = tolerance * kFineScale;
     std::array<std::int64_t, kPatchGridVertices> error{};
     std::array<bool, kPatchGridVertices> known{};

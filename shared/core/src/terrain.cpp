@@ -84,6 +84,22 @@ std::ptrdiff_t Terrain::mergeTilePatches(
     std::vector<PatchEntry>& patches,
     std::span<const PatchChange> changes,
     std::vector<PatchEntry>& merged) {
+    // a battle's shots mostly reshape patches the tile holds already: those are written in
+    // place, where a merge would copy the whole list (thousands of patches) twice
+    const auto findCell = [&](std::uint16_t cell) {
+        return std::lower_bound(
+            patches.begin(), patches.end(), cell,
+            [](const PatchEntry& e, std::uint16_t c) { return e.cell < c; });
+    };
+    const bool in_place = std::all_of(changes.begin(), changes.end(), [&](const PatchChange& c) {
+        const auto it = findCell(c.cell);
+        return !c.erase && it != patches.end() && it->cell == c.cell;
+    });
+    if (in_place) {
+        for (const PatchChange& c : changes)
+            findCell(c.cell)->patch = c.patch;
+        return 0;
+    }
     merged.clear();
     merged.reserve(patches.size() + changes.size());
     std::ptrdiff_t delta = 0;
