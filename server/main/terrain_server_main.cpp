@@ -184,21 +184,22 @@ int serve(const Options& o) {
                     strf("recovery refused: %s", recovered.error().message.c_str()));
                 return 1;
             }
+            recovery.snapshot_seq = recovered->snapshot_seq;
+            recovery.replayed_records = recovered->replayed_records;
+            recovery.seconds =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             for (const std::string& note : recovered->notes)
                 log->info("journal.note", "journal", note);
             log->info(
                 "journal.recovered", "journal",
                 strf(
                     "recovered seq %llu (snapshot %llu + %zu records replayed, hashes verified, "
-                    "%zu torn bytes dropped)",
+                    "%zu torn bytes dropped) in %.0f ms",
                     static_cast<unsigned long long>(recovered->seq),
                     static_cast<unsigned long long>(recovered->snapshot_seq),
-                    recovered->replayed_records, recovered->torn_bytes_dropped));
+                    recovered->replayed_records, recovered->torn_bytes_dropped,
+                    1000.0 * recovery.seconds));
             seq = recovered->seq;
-            recovery.snapshot_seq = recovered->snapshot_seq;
-            recovery.replayed_records = recovered->replayed_records;
-            recovery.seconds =
-                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             terrain.emplace(std::move(recovered->terrain));
             history = std::move(recovered->history);
         }

@@ -94,6 +94,10 @@ TEST(ServerMetrics, ProbesAnswerAndFiguresFollowRealTraffic) {
     EXPECT_GE(sample(after, "terrain_snapshot_joins_total"), 2.0);
     EXPECT_GT(sample(after, "terrain_bytes_out_total"), sample(before, "terrain_bytes_out_total"));
     EXPECT_GE(sample(after, "terrain_snapshot_build_seconds_count"), 1.0); // the join snapshot
+    // no journal: nothing recovered, nothing a restart would replay (the series are there)
+    EXPECT_EQ(sample(after, "terrain_recovery_seconds"), 0.0);
+    EXPECT_EQ(sample(after, "terrain_recovery_replayed_records"), 0.0);
+    EXPECT_EQ(sample(after, "terrain_journal_replay_pending_seconds"), 0.0);
 
     // what a scraper or a stray client may send
     EXPECT_EQ(statusOf(httpExchange(port, "POST /metrics HTTP/1.1\r\n\r\n")), 405);

@@ -283,8 +283,9 @@ void ServerHub::log(LogEvent event) {
 }
 
 void ServerHub::broadcast(std::vector<PendingOp>& ops) {
-    for (const PendingOp& p : ops)
-        replay_seconds_since_snapshot_ += p.apply_seconds;
+    if (journal_) // what a recovery from the last snapshot would replay
+        for (const PendingOp& p : ops)
+            replay_seconds_since_snapshot_ += p.apply_seconds;
     if (config_.batch_broadcasts && ops.size() > 1) {
         broadcastBatched(ops);
     } else {
