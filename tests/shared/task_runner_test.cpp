@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <stdexcept>
 #include <vector>
 
 namespace terrain {
@@ -25,6 +26,27 @@ TEST(ThreadPool, EveryTaskOfEveryJobRunsOnceAndIsDoneWhenRunReturns) {
                                                  << " tasks, job " << job << ", task " << i;
             }
         }
+    }
+}
+
+TEST(ThreadPool, ATaskThatThrowsStopsTheJobAndRunRethrowsOnceNoThreadHoldsIt) {
+    ThreadPool pool(4);
+    for (int job = 0; job < 20; ++job) {
+        std::atomic<int> ran{0};
+        EXPECT_THROW(
+            pool.run(
+                200,
+                [&](std::size_t i) {
+                    ran.fetch_add(1);
+                    if (i == 7)
+                        throw std::runtime_error("task 7");
+                }),
+            std::runtime_error);
+        EXPECT_GE(ran.load(), 8);
+        // the pool goes on
+        std::atomic<int> after{0};
+        pool.run(50, [&](std::size_t) { after.fetch_add(1); });
+        EXPECT_EQ(after.load(), 50);
     }
 }
 

@@ -244,7 +244,8 @@ void ServerHub::start() {
 
 void ServerHub::maybeWriteJournalSnapshot() {
     const auto due = [this] {
-        if (!journal_ || failed_ || journal_snapshot_in_flight_ ||
+        // shutdown() writes its own snapshot at the last seq
+        if (!journal_ || failed_ || shutting_down_ || journal_snapshot_in_flight_ ||
             broadcast_seq_ == last_journal_snapshot_seq_)
             return false;
         const bool by_count =

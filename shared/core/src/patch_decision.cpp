@@ -101,8 +101,10 @@ bool craterRectFits(const PointwiseOp& f, const Rect48& rect, std::int64_t room)
     const std::int64_t fx = std::min(cap48, std::max(absI64(rect.x0 - ox), absI64(rect.x1 - ox)));
     const std::int64_t fy = std::min(cap48, std::max(absI64(rect.y0 - oy), absI64(rect.y1 - oy)));
     constexpr std::int64_t kOne = kUnitStrength;
-    const std::int64_t nx = std::clamp(ox, rect.x0, rect.x1) - ox;
-    const std::int64_t ny = std::clamp(oy, rect.y0, rect.y1) - oy;
+    // capped like squaredDistance48: a capped side is beyond the footprint either way, and the
+    // square cannot overflow at the largest spacing
+    const std::int64_t nx = std::min(cap48, absI64(std::clamp(ox, rect.x0, rect.x1) - ox));
+    const std::int64_t ny = std::min(cap48, absI64(std::clamp(oy, rect.y0, rect.y1) - oy));
     const std::int64_t near2 = nx * nx + ny * ny;
     const std::int64_t r48 = r * kFineScale;
     if (near2 >= 4 * r48 * r48)
@@ -140,8 +142,8 @@ bool craterRectFits(const PointwiseOp& f, const Rect48& rect, std::int64_t room)
     const std::int64_t rim = ceilDiv(f.rim48(), kFineScale);
     const std::int64_t anchor = ceilDiv(absI64(f.ground().anchor48), kFineScale);
     // M side^2 / 4 <= room with side^2 = side48^2 / 48^2: scale side48^2 <= 2 r^2 48^2 room
-    const std::int64_t side48 = rect.x1 - rect.x0;
-    const auto side2 = static_cast<std::uint64_t>(side48 * side48);
+    const auto side48 = static_cast<std::uint64_t>(rect.x1 - rect.x0);
+    const std::uint64_t side2 = side48 * side48; // up to 2^63.2 at the largest spacing
     const auto r2 = static_cast<std::uint64_t>(2 * r48 * r48);
     const auto uroom = static_cast<std::uint64_t>(room);
     // The relief: M = 2 (depth + rim) / r^2 in the bowl, 2 rim / r^2 beyond the rim (never

@@ -1,6 +1,7 @@
 #include <terrain/task_runner.h>
 
 #include <atomic>
+#include <exception>
 
 namespace terrain {
 
@@ -29,10 +30,19 @@ struct ThreadPool::Job {
     std::atomic<std::size_t> next{0};
     /// workers that took the job and have not left it: run() returns only once none has
     std::atomic<unsigned> users{0};
+    std::mutex failure_mutex;
+    std::exception_ptr failure; ///< the first task that threw (run() rethrows it)
 
     void drain() {
-        for (std::size_t i = next.fetch_add(1); i < count; i = next.fetch_add(1))
-            (*task)(i);
+        try {
+            for (std::size_t i = next.fetch_add(1); i < count; i = next.fetch_add(1))
+                (*task)(i);
+        } catch (...) {
+            next.store(count); // the rest are not started
+            std::lock_guard<std::mutex> lock(failure_mutex);
+            if (!failure)
+                failure = std::current_exception();
+        }
     }
 };
 
@@ -79,6 +89,8 @@ void ThreadPool::run(std::size_t count, const std::function<void(std::size_t)>& 
     }
     while (job.users.load(std::memory_order_acquire) != 0)
         std::this_thread::yield();
+    if (job.failure) // a task threw (allocation failure): no worker holds the job any more
+        std::rethrow_exception(job.failure);
 }
 
 void ThreadPool::work() {

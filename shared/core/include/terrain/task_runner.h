@@ -18,7 +18,8 @@ class TaskRunner {
   public:
     virtual ~TaskRunner() = default;
     /// Runs task(i) for every i in [0, count), possibly on several threads, the caller's among
-    /// them; returns once all have returned. Tasks must not throw.
+    /// them; returns once all have returned. A task that throws (an allocation failure) stops
+    /// the tasks not yet started, and run() rethrows it once no thread holds the job.
     virtual void run(std::size_t count, const std::function<void(std::size_t)>& task) = 0;
     /// Threads that may run tasks at once, the caller's included.
     virtual unsigned threads() const = 0;
