@@ -1,11 +1,14 @@
 // The golden battle without a test framework, so that any compiler and any CPU can run it: the
 // canonical ops of tests/data/golden_battle_ops.txt (2,000 shots of the battle generator on a
 // 257 x 257 procedural map) applied in order, and the world hash compared with the golden one.
-// CI runs it from the clang build; .ci/cross runs it under qemu for aarch64 and s390x.
+// CI runs it from the clang build; .ci/cross runs it under qemu for aarch64 and s390x. The
+// battle is applied serially and again with Terrain::apply's thread pool at 4 threads, whose
+// world hash must equal the serial one after every op.
 //   golden_battle_check <tests/data>   exit 0: the golden hash; 1: another; 2: unreadable data
 
 #include <terrain/op_script.h>
 #include <terrain/procedural_map.h>
+#include <terrain/task_runner.h>
 #include <terrain/terrain.h>
 
 #include <cinttypes>
@@ -75,14 +78,22 @@ int main(int argc, char** argv) {
         return 2;
     }
     const std::uint64_t genesis = t->worldHash();
-    for (const terrain::DeformOp& op : *ops)
+    terrain::Terrain pooled = *t;
+    terrain::ThreadPool pool(4);
+    std::size_t threads_differ = 0;
+    for (const terrain::DeformOp& op : *ops) {
         if (auto e = t->apply(op); !e) {
             std::fprintf(
                 stderr, "golden_battle_check: an op was refused: %s\n", e.error().message.c_str());
             return 1;
         }
-    const bool ok =
-        genesis == map_hash && t->worldHash() == final_hash && t->patchCount() == patches;
+        if (auto e = pooled.apply(op, &pool); !e || pooled.worldHash() != t->worldHash())
+            ++threads_differ;
+    }
+    if (threads_differ > 0)
+        std::printf("%zu ops gave another world hash at 4 threads\n", threads_differ);
+    const bool ok = genesis == map_hash && t->worldHash() == final_hash &&
+                    t->patchCount() == patches && threads_differ == 0;
     std::printf(
         "golden battle: %zu ops on %d x %d (seed %" PRIu64 "): map %016" PRIx64
         ", final %016" PRIx64 ", %zu patches: %s\n",
