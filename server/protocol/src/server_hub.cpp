@@ -431,7 +431,14 @@ void ServerHub::writeJournalSnapshot() {
     last_journal_snapshot_seq_ = broadcast_seq_;
     replay_seconds_since_snapshot_ = 0.0;
     journal_snapshot_in_flight_ = true;
-    auto terrain = std::make_shared<const Terrain>(authority_.terrain());
+    // the copy the snapshot thread encodes is kept between snapshots and assigned into: its
+    // buffers stay mapped, where a fresh copy of a grown world page-faulted its way through
+    // some 10 MB on this thread each time (the time rule snapshots every few seconds)
+    if (!journal_copy_ || journal_copy_.use_count() > 1)
+        journal_copy_ = std::make_shared<Terrain>(authority_.terrain());
+    else
+        *journal_copy_ = authority_.terrain();
+    std::shared_ptr<const Terrain> terrain = journal_copy_;
     host_.runSnapshot(
         [this, terrain, seq = broadcast_seq_, dir = journal_->directory(),
          alive = std::weak_ptr<bool>(alive_)]() -> std::function<void()> {

@@ -266,6 +266,8 @@ class ServerHub {
     std::uint64_t broadcast_hash_ = 0;            ///< after op broadcast_seq_
     std::uint64_t last_journal_snapshot_seq_ = 0; ///< the last begun (or the recovered one)
     double replay_seconds_since_snapshot_ = 0.0;
+    /// The world as of the last journal snapshot, reused by the next one (writeJournalSnapshot).
+    std::shared_ptr<Terrain> journal_copy_;
     std::vector<wire::Frame> op_frames_; // ring parallel to the authority's op log
     std::uint64_t genesis_hash_ = 0;
     std::array<JoinSnapshot, kSnapshotKinds> join_snapshots_;
