@@ -17,6 +17,7 @@
 #include <terrain/wire/framing.h>
 
 #include <CLI/CLI.hpp>
+#include <sched.h>
 
 #include <algorithm>
 #include <asio.hpp>
@@ -34,6 +35,19 @@ namespace {
 
 using namespace terrain;
 namespace pb = wire::pb;
+
+/// The CPUs this process may run on (its affinity: a container's cpuset), at most 8: an op's
+/// tasks are a few hundred microseconds, and more threads only spin.
+unsigned defaultApplyThreads() {
+    unsigned cpus = ThreadPool::hardwareThreads();
+#ifdef __linux__
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    if (sched_getaffinity(0, sizeof(set), &set) == 0)
+        cpus = static_cast<unsigned>(std::max(1, CPU_COUNT(&set)));
+#endif
+    return std::min(cpus, 8u);
+}
 
 struct Options {
     std::string bind = "0.0.0.0";
@@ -61,7 +75,7 @@ struct Options {
     double deform_rate = 30.0;
     std::uint64_t snapshot_every = 20000;
     double snapshot_replay_seconds = server::ServerConfig{}.journal_snapshot_replay_seconds;
-    unsigned apply_threads = ThreadPool::hardwareThreads();
+    unsigned apply_threads = defaultApplyThreads();
     bool batch_broadcasts = false;
     bool batch_hash_per_op = false;
     std::string port_file;
@@ -569,7 +583,7 @@ int main(int argc, char** argv) {
         ->add_option(
             "--apply-threads", o.apply_threads,
             "threads an op's cells and tiles are applied on, the network thread among them (the "
-            "same bits at any count); default: the machine's hardware threads")
+            "same bits at any count); default: the CPUs the process may use, at most 8")
         ->envname("TERRAIN_APPLY_THREADS")
         ->check(CLI::Range(1, 256))
         ->capture_default_str();
