@@ -85,6 +85,73 @@ struct Rect48 {
     std::array<std::int64_t, 4> original{};
 };
 
+// What craterRectFits() bounded over a rectangle, for kinkFits().
+struct RegimeBounds {
+    std::int64_t a_lo, a_hi;         // A = S - z, 1/48 quanta
+    std::int64_t limit_lo, limit_hi; // L
+    std::int64_t t_hi;               // the farthest radius ratio, 16.16
+    bool crosses_rim;
+};
+
+// A regime boundary may cross the rectangle (the floor and the ceiling do not bind: checked
+// before). With x+ = max(x, 0) and s the share, the change is
+//   -L + (A + L)+ - (1 - s) A+ - s (A - L)+,
+// and each x+ term misses its interpolation over a triangle by at most its argument's own
+// (M side^2 / 4) plus min(P, N), P and N the largest positive and negative values of the
+// argument at the triangle's corners (the kink of x+ over a linear argument). A term whose
+// argument is <= 0 over the whole rectangle is 0. The rim's crease is not bounded here.
+bool kinkFits(const PointwiseOp& f, const Rect48& rect, std::int64_t room, const RegimeBounds& b) {
+    if (b.crosses_rim)
+        return false;
+    constexpr std::int64_t kOne = kUnitStrength;
+    const DeformOp& op = f.op();
+    const std::int64_t rim = ceilDiv(f.rim48(), kFineScale);
+    const std::int64_t anchor = ceilDiv(absI64(f.ground().anchor48), kFineScale);
+    // curvature scales (M = 2 scale / r^2), as reliefFits and limitFits have them
+    const std::int64_t scale_a = (b.t_hi <= kOne ? op.height + rim + 1 : rim + 1) + anchor;
+    const std::int64_t scale_l = op.height + rim + 1;
+    // A and L at the corners: beyond the footprint L is 0 and S the plane (the terms reach 0
+    // there with zero slope)
+    std::array<std::int64_t, 4> a{};
+    std::array<std::int64_t, 4> l{};
+    const std::array<std::pair<std::int64_t, std::int64_t>, 4> at = {
+        std::pair{rect.x0, rect.y0}, {rect.x1, rect.y0}, {rect.x0, rect.y1}, {rect.x1, rect.y1}};
+    for (std::size_t i = 0; i < 4; ++i) {
+        const CraterTerms terms = f.craterTerms(at[i].first, at[i].second);
+        a[i] = (terms.inside ? terms.target : f.plane48(at[i].first, at[i].second)) - rect.z[i];
+        l[i] = terms.inside ? terms.limit : 0;
+    }
+    const std::int64_t share = f.ground().ejecta_share;
+    std::int64_t scale16 = scale_l * kOne; // the -L term
+    std::int64_t gap16 = 0;                // 1/48 quanta, 16.16
+    // weight (16.16) x (B = A + k L)+, with `b_hi` a bound on B over the rectangle
+    auto term = [&](std::int64_t weight, std::int64_t b_hi, int k) {
+        if (weight == 0 || b_hi <= 0)
+            return;
+        scale16 += weight * (scale_a + (k != 0 ? scale_l : 0));
+        std::int64_t p = 0;
+        std::int64_t n = 0;
+        for (std::size_t i = 0; i < 4; ++i) {
+            const std::int64_t v = a[i] + k * l[i];
+            p = std::max(p, v);
+            n = std::max(n, -v);
+        }
+        gap16 += weight * std::min(p, n);
+    };
+    term(kOne, b.a_hi + b.limit_hi, 1);
+    term(kOne - share, b.a_hi, 0);
+    term(share, b.a_hi - b.limit_lo, -1);
+    // the corners' terms are the fixed-point ones: a quantum more for them
+    const std::int64_t gap = ceilDiv(ceilDiv(gap16, kOne), kFineScale) + 1;
+    if (gap >= room)
+        return false;
+    const auto side48 = static_cast<std::uint64_t>(rect.x1 - rect.x0);
+    const std::int64_t r48 = std::int64_t{op.radius} * kFineScale;
+    return productLessEqual(
+        static_cast<std::uint64_t>(ceilDiv(scale16, kOne)), side48 * side48,
+        static_cast<std::uint64_t>(2 * r48 * r48), static_cast<std::uint64_t>(room - gap));
+}
+
 // A crater over a rectangle: with A = S - z, the change is -limit (A <= -limit), A (-limit <=
 // A <= 0), share * A (0 <= A <= limit) or share * limit (A >= limit). Wherever the bounds below
 // put the whole rectangle in one of these regimes, the change is the old (linear) surface's plus
@@ -187,7 +254,7 @@ bool craterRectFits(const PointwiseOp& f, const Rect48& rect, std::int64_t room)
         return true; // nothing to fill with: untouched
     if (carved || filled || either)
         return reliefFits();
-    return false; // a regime boundary may cross the rectangle
+    return kinkFits(f, rect, room, {a_lo, a_hi, limit_lo, limit_hi, t_hi, crosses_rim});
 }
 
 // The fixed-point profile's slack (quanta): 16.16 radius ratio and tapers, about 3 (|height| +
