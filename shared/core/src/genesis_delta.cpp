@@ -278,7 +278,7 @@ decodeGenesisDelta(std::span<const std::uint8_t> bytes, const Terrain& holder) {
     Terrain t;
     t.spec_ = spec;
     t.padded_width_ = holder.padded_width_;
-    t.samples_ = holder.original_;
+    t.samples_ = *holder.original_;
     t.original_ = holder.original_;
     t.tiles_.resize(holder.tiles_.size());
 
@@ -322,7 +322,7 @@ decodeGenesisDelta(std::span<const std::uint8_t> bytes, const Terrain& holder) {
                                                    " truncated (or overlong) in its displacements");
                 const std::size_t at = static_cast<std::size_t>(ty * kTileCells + y) * pw +
                                        static_cast<std::size_t>(tx * kTileCells + x);
-                const std::int64_t v = std::int64_t{t.original_[at]} + displacement;
+                const std::int64_t v = std::int64_t{(*t.original_)[at]} + displacement;
                 if (v > kMaxHeightQuanta || v < -kMaxHeightQuanta)
                     return makeError(
                         ErrorCode::kOutOfRange, "sample " + std::to_string(v) +

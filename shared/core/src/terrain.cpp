@@ -54,7 +54,7 @@ Terrain::createUnhashed(const WorldSpec& spec, std::span<const std::int32_t> sam
                      static_cast<std::size_t>(sx)]);
         }
     }
-    t.original_ = t.samples_;
+    t.original_ = std::make_shared<std::vector<std::int32_t>>(t.samples_);
     t.tiles_.resize(static_cast<std::size_t>(spec.tileCount()));
     return t;
 }
@@ -241,7 +241,7 @@ std::uint64_t Terrain::streamTileHash(std::int32_t tile, bool genesis) const {
     const std::int32_t ty = tile / spec_.tilesX();
     put32(static_cast<std::uint32_t>(tx));
     put32(static_cast<std::uint32_t>(ty));
-    const std::vector<std::int32_t>& ground = genesis ? original_ : samples_;
+    const std::vector<std::int32_t>& ground = genesis ? *original_ : samples_;
     for (std::int32_t y = 0; y < kTileVertices; ++y) {
         const std::int32_t* row = &ground
                                       [static_cast<std::size_t>(ty * kTileCells + y) *
@@ -320,7 +320,7 @@ bool Terrain::differsFromGenesis(std::int32_t tile) const {
         if (!std::equal(
                 samples_.begin() + static_cast<std::ptrdiff_t>(row),
                 samples_.begin() + static_cast<std::ptrdiff_t>(row + kTileVertices),
-                original_.begin() + static_cast<std::ptrdiff_t>(row)))
+                original_->begin() + static_cast<std::ptrdiff_t>(row)))
             return true;
     }
     return false;
@@ -343,7 +343,7 @@ std::uint64_t Terrain::computeWorldHash() const {
 MemoryUsage Terrain::memoryUsage() const {
     MemoryUsage m;
     m.sample_bytes = samples_.capacity() * sizeof(std::int32_t);
-    m.original_bytes = original_.capacity() * sizeof(std::int32_t);
+    m.original_bytes = original_->capacity() * sizeof(std::int32_t);
     m.tile_bytes = tiles_.capacity() * sizeof(Tile);
     for (const Tile& t : tiles_)
         m.patch_bytes += t.patches.capacity() * sizeof(PatchEntry);
@@ -357,11 +357,12 @@ void Terrain::loadTile(
     std::vector<PatchEntry> patches) {
     const std::int32_t tx = tile % spec_.tilesX();
     const std::int32_t ty = tile / spec_.tilesX();
+    std::vector<std::int32_t>& original = mutableOriginal();
     for (std::int32_t y = 0; y < kTileVertices; ++y)
         for (std::int32_t x = 0; x < kTileVertices; ++x) {
             const auto i = static_cast<std::size_t>(y * kTileVertices + x);
             setSample(tx * kTileCells + x, ty * kTileCells + y, samples65[i]);
-            original_
+            original
                 [static_cast<std::size_t>(ty * kTileCells + y) *
                      static_cast<std::size_t>(padded_width_) +
                  static_cast<std::size_t>(tx * kTileCells + x)] = originals65[i];
@@ -390,6 +391,13 @@ void Terrain::rehashAll() {
     for (std::int32_t tile = 0; tile < spec_.tileCount(); ++tile)
         refreshTile(tile);
     rehashWorld();
+}
+
+std::vector<std::int32_t>& Terrain::mutableOriginal() {
+    // shared with a copy (a snapshot being encoded on another thread): this one gets its own
+    if (original_.use_count() > 1)
+        original_ = std::make_shared<std::vector<std::int32_t>>(*original_);
+    return *original_;
 }
 
 void Terrain::replaceTile(

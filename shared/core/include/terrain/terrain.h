@@ -13,6 +13,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -81,7 +82,7 @@ class Terrain {
     /// measure how deep they may dig and how high they may throw from it; it changes only
     /// through snapshots and repairs, which carry it.
     std::int32_t original(std::int32_t x, std::int32_t y) const {
-        return original_
+        return (*original_)
             [static_cast<std::size_t>(y) * static_cast<std::size_t>(padded_width_) +
              static_cast<std::size_t>(x)];
     }
@@ -205,7 +206,11 @@ class Terrain {
     WorldSpec spec_;
     std::int32_t padded_width_ = 0;
     std::vector<std::int32_t> samples_;
-    std::vector<std::int32_t> original_; // the samples at creation, padded the same way
+    // the samples at creation, padded the same way: shared by copies (a snapshot's copy of the
+    // world copies the pointer), cloned before a repair writes it (mutableOriginal)
+    std::shared_ptr<std::vector<std::int32_t>> original_ =
+        std::make_shared<std::vector<std::int32_t>>();
+    std::vector<std::int32_t>& mutableOriginal();
     std::vector<Tile> tiles_;
     std::size_t patch_count_ = 0;
     std::uint64_t world_hash_ = 0;
