@@ -131,6 +131,41 @@ void BM_TerrainCopy(benchmark::State& state) {
 }
 BENCHMARK(BM_TerrainCopy)->Unit(benchmark::kMillisecond);
 
+// What a journal snapshot costs its io thread: bringing the copy it keeps up to date after one
+// more crater, by assignment (arg 0) or by syncFrom (arg 1: the changed tiles only)
+void BM_SnapshotCopyFollows(benchmark::State& state) {
+    Terrain t = benchMap(1.0 / 32.0);
+    for (int i = 0; i < 1000; ++i)
+        (void)t.apply(*quantizeOp(
+            OpRequest{
+                OpKind::kCrater, 40.0 + (i % 40) * 49.0, 40.0 + (i / 40) * 49.0 + (i % 7), 6.0, 2.4,
+                0.25},
+            t.spec()));
+    Terrain copy = t;
+    const bool sync = state.range(0) == 1;
+    int i = 0;
+    std::size_t tiles = 0;
+    for (auto _ : state) {
+        state.PauseTiming();
+        (void)t.apply(*quantizeOp(
+            OpRequest{
+                OpKind::kCrater, 60.0 + (i % 30) * 61.0, 900.0 + (i % 11) * 3.0, 5.0, 2.0, 0.25},
+            t.spec()));
+        ++i;
+        state.ResumeTiming();
+        if (sync)
+            tiles += copy.syncFrom(t);
+        else
+            copy = t;
+        benchmark::DoNotOptimize(copy.worldHash());
+    }
+    state.counters["patches"] = static_cast<double>(t.patchCount());
+    state.counters["tiles_copied"] =
+        sync ? static_cast<double>(tiles) / static_cast<double>(state.iterations())
+             : static_cast<double>(t.spec().tileCount());
+}
+BENCHMARK(BM_SnapshotCopyFollows)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
 void BM_SnapshotDecode(benchmark::State& state) {
     const auto bytes = encodeSnapshot(benchMap(1.0 / 32.0), 0);
     for (auto _ : state)

@@ -308,6 +308,63 @@ TEST_F(JournalTest, snapshotsRotateSegmentsPruneAndRecoveryReplaysOnlyTheTail) {
     EXPECT_TRUE(contains(fallback->notes[0], "snapshot-00000000000000000180.trsn skipped"));
 }
 
+// the server's setting: a snapshot keeps the current segment until it holds segment_records
+// records, so that it costs the io thread no file creation; recovery replays from the middle
+TEST_F(JournalTest, segmentsRotateBySizeAndRecoveryStartsInTheMiddleOfOne) {
+    JournalOptions options{Durability::kFsync, 2};
+    options.segment_records = 100;
+    {
+        Journal j = openJournal(options);
+        ASSERT_TRUE(j.initialize(genesis_).ok());
+        journalOps(j, 40);
+        ASSERT_TRUE(j.beginSnapshot(40).ok());
+        ASSERT_TRUE(j.snapshotWritten(writeSnapshotFile(dir_, live_, 40)).ok());
+        journalOps(j, 80);
+        ASSERT_TRUE(j.writeSnapshot(live_, 80).ok()); // 80 records: the segment goes on
+        journalOps(j, 130);
+        ASSERT_TRUE(j.beginSnapshot(130).ok()); // 130 records: journal-131 starts
+        ASSERT_TRUE(j.snapshotWritten(writeSnapshotFile(dir_, live_, 130)).ok());
+        journalOps(j, 150);
+        EXPECT_EQ(j.snapshotSeq(), 130u);
+    }
+    std::vector<std::string> segments;
+    for (const auto& p : filesStartingWith(dir_, "journal-"))
+        segments.push_back(p.filename().string());
+    // snapshots 80 and 130 kept: records 81 ... 130 are in the first segment, which stays
+    EXPECT_EQ(
+        segments, (std::vector<std::string>{
+                      "journal-00000000000000000001.tjl", "journal-00000000000000000131.tjl"}));
+    EXPECT_EQ(filesStartingWith(dir_, "snapshot-").size(), 2u);
+    auto r = recoverFresh(options);
+    ASSERT_TRUE(r.ok()) << r.error().message;
+    EXPECT_EQ(r->snapshot_seq, 130u);
+    EXPECT_EQ(r->replayed_records, 20u);
+    EXPECT_EQ(r->terrain.worldHash(), live_.worldHash());
+    auto v = verifyJournal(dir_);
+    ASSERT_TRUE(v.ok()) << v.error().message;
+    EXPECT_EQ(v->last_seq, 150u);
+
+    // a crash after a snapshot in the middle of the newest segment: recovery replays from the
+    // record after it, in the same file, and the journal goes on appending there
+    fs::remove(filesStartingWith(dir_, "snapshot-").back());
+    {
+        Journal j = openJournal(options);
+        auto again = j.recover();
+        ASSERT_TRUE(again.ok()) << again.error().message;
+        EXPECT_EQ(again->snapshot_seq, 80u);
+        EXPECT_EQ(again->replayed_records, 70u);
+        EXPECT_EQ(again->terrain.worldHash(), live_.worldHash());
+        journalOps(j, 160);
+        ASSERT_TRUE(j.writeSnapshot(live_, 160).ok()); // 30 records in journal-131: goes on
+    }
+    EXPECT_EQ(filesStartingWith(dir_, "journal-").size(), 2u);
+    auto last = recoverFresh(options);
+    ASSERT_TRUE(last.ok()) << last.error().message;
+    EXPECT_EQ(last->snapshot_seq, 160u);
+    EXPECT_EQ(last->replayed_records, 0u);
+    EXPECT_EQ(last->terrain.worldHash(), live_.worldHash());
+}
+
 TEST_F(JournalTest, recoveredHistoryReachesBackPastTheSnapshotAsFarAsTheSegmentsGo) {
     // for the server's retained log: the last records before the recovered state, with the
     // state they start from, read from every segment still on disk

@@ -86,6 +86,12 @@ Status Journal::continueSegment(const std::filesystem::path& path) {
     auto file = detail::openFile(path, O_WRONLY | O_APPEND);
     if (!file)
         return file.error();
+    // its records may come from a run under kWrite: made durable now, so that under kFsync
+    // every committed record is (closeSegmentAt relies on it)
+    if (options_.durability == Durability::kFsync) {
+        if (auto s = detail::syncData(file->get(), path); !s)
+            return s;
+    }
     files_->segment = std::move(*file);
     segment_path_ = path;
     return Ok{};
@@ -350,16 +356,20 @@ Status Journal::closeSegmentAt(const char* caller, std::uint64_t seq) {
                                         ") needs seq == lastSeq() (" + std::to_string(last_seq_) +
                                         ") and nothing pending (" +
                                         std::to_string(pending_records_) + " records)");
-    // the segment being closed becomes durable first, whatever the policy: pruning may delete
-    // the older snapshots that could otherwise have rebuilt its records
-    if (auto s = detail::syncData(files_->segment.get(), segment_path_); !s)
-        return fail(s.error());
+    // the segment being closed becomes durable first: pruning may delete the older snapshots
+    // that could otherwise have rebuilt its records (under kFsync, commit() synced them all)
+    if (options_.durability != Durability::kFsync) {
+        if (auto s = detail::syncData(files_->segment.get(), segment_path_); !s)
+            return fail(s.error());
+    }
     return Ok{};
 }
 
 Status Journal::startSegmentAfter(std::uint64_t seq) {
     // an empty current segment already starts at seq + 1 (a second snapshot at the same seq)
-    if (segment_first_seq_ != seq + 1) {
+    const std::uint64_t held = seq + 1 - segment_first_seq_;
+    const bool goes_on = options_.segment_records != 0 && held < options_.segment_records;
+    if (segment_first_seq_ != seq + 1 && !goes_on) {
         if (auto s = startSegment(seq + 1); !s)
             return fail(s.error());
     }

@@ -344,7 +344,7 @@ decodeGenesisDelta(std::span<const std::uint8_t> bytes, const Terrain& holder) {
             return makeError(
                 ErrorCode::kOutOfRange,
                 "patch count " + std::to_string(count) + " exceeds the cells of a tile");
-        std::vector<PatchEntry>& patches = t.tiles_[static_cast<std::size_t>(tile)].patches;
+        std::vector<PatchEntry>& patches = t.mutablePatches(static_cast<std::size_t>(tile));
         patches.resize(count);
         std::int64_t previous_cell = -1;
         for (PatchEntry& e : patches) {
@@ -369,7 +369,7 @@ decodeGenesisDelta(std::span<const std::uint8_t> bytes, const Terrain& holder) {
     for (Pending& p : pending) {
         const std::int32_t tx = p.tile % spec.tilesX();
         const std::int32_t ty = p.tile / spec.tilesX();
-        std::vector<PatchEntry>& own = t.tiles_[static_cast<std::size_t>(p.tile)].patches;
+        std::vector<PatchEntry>& own = t.mutablePatches(static_cast<std::size_t>(p.tile));
         std::fill(local.begin(), local.end(), nullptr);
         for (const PatchEntry& e : own)
             local[e.cell] = &e.patch;
@@ -377,7 +377,7 @@ decodeGenesisDelta(std::span<const std::uint8_t> bytes, const Terrain& holder) {
             if (x / kTileCells == tx && y / kTileCells == ty)
                 return local[Terrain::localCell(x, y)];
             return findIn(
-                t.tiles_[static_cast<std::size_t>(t.tileOfCell(x, y))].patches,
+                *t.tiles_[static_cast<std::size_t>(t.tileOfCell(x, y))].patches,
                 Terrain::localCell(x, y));
         };
         const auto has = [&](std::int32_t x, std::int32_t y) { return at(x, y) != nullptr; };
@@ -456,7 +456,7 @@ decodeGenesisDelta(std::span<const std::uint8_t> bytes, const Terrain& holder) {
                     (in_delta[static_cast<std::size_t>(tile)] != 0
                          ? " is in the genesis delta but equals its genesis"
                          : " differs from its genesis but is not in the genesis delta"));
-        t.patch_count_ += t.tiles_[static_cast<std::size_t>(tile)].patches.size();
+        t.patch_count_ += t.tiles_[static_cast<std::size_t>(tile)].patches->size();
         t.refreshTile(tile);
     }
     t.rehashWorld();

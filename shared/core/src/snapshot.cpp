@@ -255,8 +255,9 @@ Result<DecodedSnapshot> decodeSnapshot(std::span<const std::uint8_t> bytes) {
     // is the record's: no need to serialize the tile again
     for (std::size_t i = 0; i < records.size(); ++i) {
         terrain->refreshBounds(records[i].tile);
-        terrain->tiles_[static_cast<std::size_t>(records[i].tile)].hash =
-            XXH3_64bits(record_bytes[i].data(), record_bytes[i].size());
+        Terrain::Tile& tile = terrain->tiles_[static_cast<std::size_t>(records[i].tile)];
+        tile.hash = XXH3_64bits(record_bytes[i].data(), record_bytes[i].size());
+        tile.version = Terrain::nextTileVersion();
     }
     terrain->rehashWorld();
     if (auto status = terrain->checkInvariants(); !status)

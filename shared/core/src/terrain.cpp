@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <cstring>
 #include <string>
@@ -70,7 +71,7 @@ Result<Terrain> Terrain::create(const WorldSpec& spec, std::span<const std::int3
 }
 
 const DetailPatch* Terrain::findPatch(std::int32_t cx, std::int32_t cy) const {
-    const auto& patches = tiles_[static_cast<std::size_t>(tileOfCell(cx, cy))].patches;
+    const auto& patches = *tiles_[static_cast<std::size_t>(tileOfCell(cx, cy))].patches;
     if (patches.empty())
         return nullptr;
     const std::uint16_t cell = localCell(cx, cy);
@@ -136,7 +137,7 @@ void Terrain::applyPatchChanges(std::span<const PatchChange> changes, TaskRunner
             const auto tile = static_cast<std::size_t>(changes[starts[g]].tile);
             patch_count_ = static_cast<std::size_t>(
                 static_cast<std::ptrdiff_t>(patch_count_) +
-                mergeTilePatches(tiles_[tile].patches, group(g), merge_scratch_));
+                mergeTilePatches(mutablePatches(tile), group(g), merge_scratch_));
         }
         return;
     }
@@ -144,7 +145,7 @@ void Terrain::applyPatchChanges(std::span<const PatchChange> changes, TaskRunner
     runner->run(groups, [&](std::size_t g) {
         std::vector<PatchEntry> merged;
         const auto tile = static_cast<std::size_t>(changes[starts[g]].tile);
-        deltas[g] = mergeTilePatches(tiles_[tile].patches, group(g), merged);
+        deltas[g] = mergeTilePatches(mutablePatches(tile), group(g), merged);
     });
     for (std::ptrdiff_t d : deltas)
         patch_count_ = static_cast<std::size_t>(static_cast<std::ptrdiff_t>(patch_count_) + d);
@@ -180,7 +181,7 @@ void Terrain::appendTileBytes(std::int32_t tile, std::vector<std::uint8_t>& out)
             const std::int32_t vy = ty * kTileCells + y;
             detail::putI32(out, sample(vx, vy) - original(vx, vy));
         }
-    const auto& patches = tiles_[static_cast<std::size_t>(tile)].patches;
+    const auto& patches = *tiles_[static_cast<std::size_t>(tile)].patches;
     detail::putU32(out, static_cast<std::uint32_t>(patches.size()));
     // patches: sized once as well (byte-wise appends were a quarter of a crater storm's time)
     constexpr std::size_t kControlBytes = sizeof(std::int32_t) * kPatchControls;
@@ -219,7 +220,65 @@ std::uint64_t hashWorld(
 } // namespace
 
 void Terrain::rehashTile(std::int32_t tile) {
-    tiles_[static_cast<std::size_t>(tile)].hash = streamTileHash(tile);
+    Tile& t = tiles_[static_cast<std::size_t>(tile)];
+    t.hash = streamTileHash(tile);
+    t.version = nextTileVersion();
+}
+
+std::uint64_t Terrain::nextTileVersion() {
+    static std::atomic<std::uint64_t> last{0};
+    return last.fetch_add(1, std::memory_order_relaxed) + 1;
+}
+
+std::vector<PatchEntry>& Terrain::mutablePatches(std::size_t tile) {
+    std::shared_ptr<std::vector<PatchEntry>>& patches = tiles_[tile].patches;
+    if (patches.use_count() > 1)
+        patches = std::make_shared<std::vector<PatchEntry>>(*patches);
+    else
+        // the other owner's release (its destructor on the snapshot thread) happens before
+        // this write: use_count() alone is a relaxed load
+        std::atomic_thread_fence(std::memory_order_acquire);
+    return *patches;
+}
+
+std::size_t Terrain::syncFrom(const Terrain& from) {
+    if (this == &from)
+        return 0;
+    if (!(spec_ == from.spec_) || samples_.size() != from.samples_.size() ||
+        tiles_.size() != from.tiles_.size()) {
+        *this = from;
+        return tiles_.size();
+    }
+    // every sample belongs to the half-open rectangle of one tile (the last row and column of
+    // tiles take the grid's last vertex line too); a change to a shared edge vertex renews the
+    // versions of every tile that holds it, so the changed tiles' rectangles hold every change
+    const auto pw = static_cast<std::size_t>(padded_width_);
+    const std::int32_t rows = static_cast<std::int32_t>(samples_.size() / pw);
+    std::size_t copied = 0;
+    for (std::int32_t tile = 0; tile < spec_.tileCount(); ++tile) {
+        Tile& mine = tiles_[static_cast<std::size_t>(tile)];
+        const Tile& theirs = from.tiles_[static_cast<std::size_t>(tile)];
+        if (mine.version == theirs.version)
+            continue;
+        mine = theirs;
+        ++copied;
+        const std::int32_t tx = tile % spec_.tilesX();
+        const std::int32_t ty = tile / spec_.tilesX();
+        const std::int32_t x0 = tx * kTileCells;
+        const std::int32_t x1 = tx + 1 == spec_.tilesX() ? padded_width_ : x0 + kTileCells;
+        const std::int32_t y0 = ty * kTileCells;
+        const std::int32_t y1 = ty + 1 == spec_.tilesY() ? rows : y0 + kTileCells;
+        for (std::int32_t y = y0; y < y1; ++y) {
+            const std::size_t at = static_cast<std::size_t>(y) * pw + static_cast<std::size_t>(x0);
+            std::copy_n(
+                from.samples_.begin() + static_cast<std::ptrdiff_t>(at), x1 - x0,
+                samples_.begin() + static_cast<std::ptrdiff_t>(at));
+        }
+    }
+    original_ = from.original_;
+    patch_count_ = from.patch_count_;
+    world_hash_ = from.world_hash_;
+    return copied;
 }
 
 std::uint64_t Terrain::streamTileHash(std::int32_t tile, bool genesis) const {
@@ -273,7 +332,7 @@ std::uint64_t Terrain::streamTileHash(std::int32_t tile, bool genesis) const {
         flush();
         return XXH3_64bits_digest(&state);
     }
-    const auto& patches = tiles_[static_cast<std::size_t>(tile)].patches;
+    const auto& patches = *tiles_[static_cast<std::size_t>(tile)].patches;
     put32(static_cast<std::uint32_t>(patches.size()));
     constexpr std::size_t kControlBytes = sizeof(std::int32_t) * kPatchControls;
     for (const PatchEntry& e : patches) {
@@ -309,7 +368,7 @@ std::uint64_t Terrain::genesisHash() const {
 }
 
 bool Terrain::differsFromGenesis(std::int32_t tile) const {
-    if (!tiles_[static_cast<std::size_t>(tile)].patches.empty())
+    if (!tiles_[static_cast<std::size_t>(tile)].patches->empty())
         return true;
     const std::int32_t tx = tile % spec_.tilesX();
     const std::int32_t ty = tile / spec_.tilesX();
@@ -346,7 +405,7 @@ MemoryUsage Terrain::memoryUsage() const {
     m.original_bytes = original_->capacity() * sizeof(std::int32_t);
     m.tile_bytes = tiles_.capacity() * sizeof(Tile);
     for (const Tile& t : tiles_)
-        m.patch_bytes += t.patches.capacity() * sizeof(PatchEntry);
+        m.patch_bytes += t.patches->capacity() * sizeof(PatchEntry);
     return m;
 }
 
@@ -367,16 +426,17 @@ void Terrain::loadTile(
                      static_cast<std::size_t>(padded_width_) +
                  static_cast<std::size_t>(tx * kTileCells + x)] = originals65[i];
         }
-    auto& slot = tiles_[static_cast<std::size_t>(tile)].patches;
-    patch_count_ -= slot.size();
-    slot = std::move(patches);
-    patch_count_ += slot.size();
+    Tile& slot = tiles_[static_cast<std::size_t>(tile)];
+    patch_count_ -= slot.patches->size();
+    slot.patches = std::make_shared<std::vector<PatchEntry>>(std::move(patches));
+    patch_count_ += slot.patches->size();
+    slot.version = nextTileVersion();
 }
 
 void Terrain::refreshBounds(std::int32_t tile) {
     const std::int32_t tx = tile % spec_.tilesX();
     const std::int32_t ty = tile / spec_.tilesX();
-    for (PatchEntry& e : tiles_[static_cast<std::size_t>(tile)].patches)
+    for (PatchEntry& e : mutablePatches(static_cast<std::size_t>(tile)))
         updateBounds(
             e.patch,
             corners(tx * kTileCells + e.cell % kTileCells, ty * kTileCells + e.cell / kTileCells));
@@ -424,7 +484,7 @@ Status Terrain::checkInvariants() const {
     for (std::int32_t tile = 0; tile < spec_.tileCount(); ++tile) {
         const std::int32_t tx = tile % spec_.tilesX();
         const std::int32_t ty = tile / spec_.tilesX();
-        const auto& patches = tiles_[static_cast<std::size_t>(tile)].patches;
+        const auto& patches = *tiles_[static_cast<std::size_t>(tile)].patches;
         if (patches.empty())
             continue;
         std::fill(local.begin(), local.end(), nullptr);

@@ -96,7 +96,7 @@ class Terrain {
     std::size_t patchCount() const { return patch_count_; }
     /// Patches of tile t in ascending local cell order.
     std::span<const PatchEntry> tilePatches(std::int32_t tile) const {
-        return tiles_[static_cast<std::size_t>(tile)].patches;
+        return *tiles_[static_cast<std::size_t>(tile)].patches;
     }
 
     std::uint64_t tileHash(std::int32_t tile) const {
@@ -143,11 +143,27 @@ class Terrain {
     /// decoding untrusted state. The error names the first cell that breaks one.
     Status checkInvariants() const;
 
+    /// Makes this terrain equal to `from` (as `*this = from` would), copying only the tiles
+    /// that changed since the two were last equal: a copy kept for snapshots follows its
+    /// source at the cost of what changed, not of the world. Patch lists are shared, not
+    /// copied (the first later write to one, on either side, clones it). Returns the tiles
+    /// copied. Not thread-safe against writers of either terrain.
+    std::size_t syncFrom(const Terrain& from);
+
   private:
     struct Tile {
-        std::vector<PatchEntry> patches; // ascending by cell
+        // ascending by cell; shared with copies of the terrain (a snapshot's), cloned before a
+        // write while shared (mutablePatches)
+        std::shared_ptr<std::vector<PatchEntry>> patches =
+            std::make_shared<std::vector<PatchEntry>>();
         std::uint64_t hash = 0;
+        // unique across every terrain in the process, renewed on each change of the tile's
+        // bytes: equal versions mean the same bytes (copies carry them; syncFrom skips those)
+        std::uint64_t version = nextTileVersion();
     };
+    static std::uint64_t nextTileVersion();
+    /// Tile t's patches for writing: its own list, cloned first when a copy still shares it.
+    std::vector<PatchEntry>& mutablePatches(std::size_t tile);
 
     Terrain() = default;
 

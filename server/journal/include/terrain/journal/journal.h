@@ -46,6 +46,10 @@ struct JournalOptions {
     /// too, so that recover(retain_records) finds them after a clean stop (the server passes
     /// its retained log's capacity).
     std::size_t history_records = 0;
+    /// 0: every snapshot starts a new segment (journal-<seq + 1>). N: a snapshot starts one only
+    /// once the current segment holds N records or more, so that a snapshot under `kFsync`
+    /// costs the journal's thread no syscall (recovery replays from the middle of a segment).
+    std::size_t segment_records = 0;
     /// Tests and benchmarks: runs before each group commit's fdatasync (on the thread that
     /// syncs), to hold a commit or to stand for a slower disk.
     std::function<void()> before_sync = nullptr;
@@ -170,8 +174,10 @@ class Journal {
     /// then starts segment journal-<seq + 1>, then deletes all but the newest keep_snapshots
     /// snapshots and every segment holding only records older than the oldest kept snapshot
     /// and than the last history_records records before the newest one.
-    /// The current segment is fdatasynced first, under either policy, so a closed segment is
-    /// always whole. `terrain` must be the state after record `seq`.
+    /// The current segment is made durable first (an fdatasync under `kWrite`; under `kFsync`
+    /// every committed record already is), so a closed segment is always whole. With
+    /// `segment_records`, the current segment goes on until it holds that many records.
+    /// `terrain` must be the state after record `seq`.
     /// Precondition: pending() == 0 and seq == lastSeq() (else kOutOfRange, nothing written).
     /// Errors: kOutOfRange; kIo (a failure before the new segment is in place fails the journal
     /// like commit(); a failure to delete old files is returned but leaves the journal usable).
@@ -179,9 +185,9 @@ class Journal {
 
     /// writeSnapshot() in two halves, for a server that writes the snapshot file on another
     /// thread (writeSnapshotFile()) while it goes on appending:
-    /// - beginSnapshot(seq) makes the current segment durable and starts journal-<seq + 1>, so
-    ///   records after seq go there. Same preconditions and errors as writeSnapshot(); an
-    ///   error fails the journal.
+    /// - beginSnapshot(seq) makes the current segment durable and starts journal-<seq + 1>
+    ///   (or, under `segment_records`, keeps the current one), and records after seq go there.
+    ///   Same preconditions and errors as writeSnapshot(); an error fails the journal.
     /// - snapshotWritten(status), once writeSnapshotFile() returned `status`: prunes like
     ///   writeSnapshot() when it succeeded; returns `status` otherwise, and the journal stays
     ///   usable (its segments hold every record; recovery uses the older snapshot).
@@ -222,7 +228,8 @@ class Journal {
     /// The checks and first step of a snapshot at `seq` (named after `caller` in the error):
     /// nothing pending, seq == lastSeq(), the current segment made durable.
     Status closeSegmentAt(const char* caller, std::uint64_t seq);
-    /// Starts journal-<seq + 1> unless the current segment is it.
+    /// Starts journal-<seq + 1> unless the current segment is it, or is to go on
+    /// (`segment_records`).
     Status startSegmentAfter(std::uint64_t seq);
     /// Marks the journal failed for good and returns `error`.
     Error fail(Error error);

@@ -251,6 +251,8 @@ class ServerHub {
     onSnapshotBuilt(std::array<std::shared_ptr<const wire::SnapshotFrames>, kSnapshotKinds> built);
     /// The journal's periodic snapshot at broadcastSeq(), its file written off this thread.
     void writeJournalSnapshot();
+    /// `kept`, made equal to the authority's world, for the snapshot thread to read.
+    std::shared_ptr<const Terrain> followTerrain(std::shared_ptr<Terrain>& kept) const;
     void finishDrain();
 
     HubHost& host_;
@@ -266,8 +268,10 @@ class ServerHub {
     std::uint64_t broadcast_hash_ = 0;            ///< after op broadcast_seq_
     std::uint64_t last_journal_snapshot_seq_ = 0; ///< the last begun (or the recovered one)
     double replay_seconds_since_snapshot_ = 0.0;
-    /// The world as of the last journal snapshot, reused by the next one (writeJournalSnapshot).
+    // copies of the world kept for the snapshot thread (journal snapshots, join snapshots):
+    // followTerrain() brings one up to date with the changed tiles only
     std::shared_ptr<Terrain> journal_copy_;
+    std::shared_ptr<Terrain> join_copy_;
     std::vector<wire::Frame> op_frames_; // ring parallel to the authority's op log
     std::uint64_t genesis_hash_ = 0;
     std::array<JoinSnapshot, kSnapshotKinds> join_snapshots_;
