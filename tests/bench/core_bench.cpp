@@ -6,6 +6,7 @@
 //  - DEM import of srtm_n44w072.
 
 #include <terrain/io/dem_import.h>
+#include <terrain/journal/journal.h>
 #include <terrain/procedural_map.h>
 #include <terrain/snapshot.h>
 #include <terrain/terrain.h>
@@ -165,6 +166,34 @@ void BM_SnapshotCopyFollows(benchmark::State& state) {
              : static_cast<double>(t.spec().tileCount());
 }
 BENCHMARK(BM_SnapshotCopyFollows)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
+// What a journal snapshot costs the snapshot thread on a battle's world: the encode alone
+// (arg 0), and the file written and made durable as the journal does (arg 1)
+void BM_SnapshotWrite(benchmark::State& state) {
+    Terrain t = benchMap(1.0 / 32.0);
+    for (int i = 0; i < 1000; ++i)
+        (void)t.apply(*quantizeOp(
+            OpRequest{
+                OpKind::kCrater, 40.0 + (i % 40) * 49.0, 40.0 + (i / 40) * 49.0 + (i % 7), 6.0, 2.4,
+                0.25},
+            t.spec()));
+    const auto dir = std::filesystem::temp_directory_path() / "core_bench_snapshot";
+    std::filesystem::create_directories(dir);
+    std::size_t bytes = 0;
+    for (auto _ : state) {
+        if (state.range(0) == 0) {
+            const auto encoded = encodeSnapshot(t, 1);
+            bytes = encoded.size();
+        } else if (!journal::writeSnapshotFile(dir, t, 1)) {
+            state.SkipWithError("writeSnapshotFile failed");
+        }
+    }
+    std::filesystem::remove_all(dir);
+    state.counters["patches"] = static_cast<double>(t.patchCount());
+    if (bytes != 0)
+        state.counters["MB"] = static_cast<double>(bytes) / 1e6;
+}
+BENCHMARK(BM_SnapshotWrite)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 void BM_SnapshotDecode(benchmark::State& state) {
     const auto bytes = encodeSnapshot(benchMap(1.0 / 32.0), 0);

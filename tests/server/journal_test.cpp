@@ -308,6 +308,30 @@ TEST_F(JournalTest, snapshotsRotateSegmentsPruneAndRecoveryReplaysOnlyTheTail) {
     EXPECT_TRUE(contains(fallback->notes[0], "snapshot-00000000000000000180.trsn skipped"));
 }
 
+// streamed to the disk a piece at a time (the flushes start past 2 MB): the same bytes as
+// encodeSnapshot(), and no temp file left
+TEST_F(JournalTest, aSnapshotFileIsTheEncodedSnapshotAndLeavesNoTempFile) {
+    fs::create_directories(dir_);
+    Terrain big = testing::makeHills(9, 700, 600);
+    auto op = quantizeOp({OpKind::kCrater, 300, 300, 6.0, 2.0, 0.3}, big.spec());
+    ASSERT_TRUE(op.ok());
+    ASSERT_TRUE(big.apply(*op).ok());
+    const auto expected = encodeSnapshot(big, 42);
+    ASSERT_GT(expected.size(), std::size_t{3} << 20);
+    ASSERT_TRUE(writeSnapshotFile(dir_, big, 42).ok());
+    ASSERT_TRUE(writeSnapshotFile(dir_, big, 42).ok()); // again over it: replaced whole
+    const auto files = filesStartingWith(dir_, "");
+    ASSERT_EQ(files.size(), 1u);
+    EXPECT_EQ(readBytes(files[0]), expected);
+    for (const auto& e : fs::directory_iterator(dir_))
+        EXPECT_FALSE(e.path().string().ends_with(".tmp")) << e.path();
+    // an unwritable place: the error names it, and nothing is left behind
+    auto refused = writeSnapshotFile(dir_ / "missing", big, 42);
+    ASSERT_FALSE(refused.ok());
+    EXPECT_EQ(refused.error().code, ErrorCode::kIo);
+    EXPECT_TRUE(contains(refused.error().message, "missing")) << refused.error().message;
+}
+
 // the server's setting: a snapshot keeps the current segment until it holds segment_records
 // records, so that it costs the io thread no file creation; recovery replays from the middle
 TEST_F(JournalTest, segmentsRotateBySizeAndRecoveryStartsInTheMiddleOfOne) {

@@ -407,8 +407,14 @@ Status Journal::snapshotWritten(const Status& written) {
 
 Status
 writeSnapshotFile(const std::filesystem::path& dir, const Terrain& terrain, std::uint64_t seq) {
-    const auto bytes = encodeSnapshot(terrain, seq);
-    return detail::writeFileAtomically(dir / detail::snapshotFileName(seq), bytes);
+    // streamed: a piece at a time to the disk, never the whole (tens of MB) in memory
+    auto writer = detail::AtomicFileWriter::create(dir / detail::snapshotFileName(seq));
+    if (!writer)
+        return writer.error();
+    encodeSnapshotTo(terrain, seq, [&](std::span<const std::uint8_t> piece) {
+        (void)writer->append(piece); // a failure is kept and returned by commit()
+    });
+    return writer->commit();
 }
 
 Status Journal::prune() {

@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <cstring>
 #include <string>
+#include <utility>
 
 namespace terrain::journal::detail {
 namespace {
@@ -106,7 +107,7 @@ Status syncDirectory(const std::filesystem::path& dir) {
     return Ok{};
 }
 
-Status writeFileAtomically(const std::filesystem::path& path, std::span<const std::uint8_t> bytes) {
+Result<AtomicFileWriter> AtomicFileWriter::create(std::filesystem::path path) {
     // a temp file per writer: a shutdown's snapshot may be written beside the snapshot thread's
     // of the same seq, and the rename is atomic either way
     static std::atomic<std::uint64_t> next_temp{0};
@@ -115,18 +116,75 @@ Status writeFileAtomically(const std::filesystem::path& path, std::span<const st
     suffix.append(".tmp");
     std::filesystem::path temp = path;
     temp += suffix;
-    {
-        auto file = openFile(temp, O_WRONLY | O_CREAT | O_TRUNC);
-        if (!file)
-            return file.error();
-        if (auto s = writeAll(file->get(), bytes, temp); !s)
-            return s;
-        if (auto s = syncData(file->get(), temp); !s)
-            return s;
+    auto file = openFile(temp, O_WRONLY | O_CREAT | O_TRUNC);
+    if (!file)
+        return file.error();
+    return AtomicFileWriter(std::move(path), std::move(temp), std::move(*file));
+}
+
+Status AtomicFileWriter::append(std::span<const std::uint8_t> bytes) {
+    if (failure_)
+        return *failure_;
+    if (Status s = writeAll(file_.get(), bytes, temp_); !s) {
+        failure_ = s.error();
+        return s;
     }
-    if (::rename(temp.c_str(), path.c_str()) != 0)
-        return ioError("cannot rename to", path, errno);
-    return syncDirectory(path.parent_path());
+    written_ += bytes.size();
+#ifdef __linux__
+    // start the writeback of what is new, and wait for the range before it: a steady trickle
+    // instead of one flush of everything at the end. Advice only: errors surface at the sync.
+    constexpr std::uint64_t kFlushBytes = std::uint64_t{1} << 20;
+    if (written_ - flushed_from_ >= 2 * kFlushBytes) {
+        const std::uint64_t upto = written_ - kFlushBytes;
+        (void)::sync_file_range(
+            file_.get(), static_cast<off64_t>(flushed_from_),
+            static_cast<off64_t>(upto - flushed_from_),
+            SYNC_FILE_RANGE_WAIT_BEFORE | SYNC_FILE_RANGE_WRITE | SYNC_FILE_RANGE_WAIT_AFTER);
+        (void)::sync_file_range(
+            file_.get(), static_cast<off64_t>(upto), static_cast<off64_t>(written_ - upto),
+            SYNC_FILE_RANGE_WRITE);
+        flushed_from_ = upto;
+    }
+#endif
+    return Ok{};
+}
+
+Status AtomicFileWriter::commit() {
+    if (failure_)
+        return *failure_;
+    if (Status s = syncData(file_.get(), temp_); !s) {
+        failure_ = s.error();
+        return s;
+    }
+    file_ = FileHandle();
+    if (::rename(temp_.c_str(), path_.c_str()) != 0) {
+        failure_ = ioError("cannot rename to", path_, errno);
+        return *failure_;
+    }
+    owns_temp_ = false;
+    return syncDirectory(path_.parent_path());
+}
+
+AtomicFileWriter::AtomicFileWriter(AtomicFileWriter&& other) noexcept
+    : path_(std::move(other.path_)), temp_(std::move(other.temp_)),
+      file_(std::move(other.file_)), written_(other.written_),
+      flushed_from_(other.flushed_from_), failure_(std::move(other.failure_)),
+      owns_temp_(std::exchange(other.owns_temp_, false)) {}
+
+AtomicFileWriter::~AtomicFileWriter() {
+    if (owns_temp_) {
+        file_ = FileHandle();
+        (void)::unlink(temp_.c_str());
+    }
+}
+
+Status writeFileAtomically(const std::filesystem::path& path, std::span<const std::uint8_t> bytes) {
+    auto writer = AtomicFileWriter::create(path);
+    if (!writer)
+        return writer.error();
+    if (Status s = writer->append(bytes); !s)
+        return s;
+    return writer->commit();
 }
 
 Status truncateFile(const std::filesystem::path& path, std::size_t size) {

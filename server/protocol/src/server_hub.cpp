@@ -232,6 +232,9 @@ void ServerHub::failJournal(const std::string& why) {
 }
 
 void ServerHub::start() {
+    // the copy the journal's snapshots follow, made now: the first snapshot only syncs it
+    if (journal_ && !journal_copy_)
+        journal_copy_ = std::make_shared<Terrain>(authority_.terrain());
     // the records a recovery replayed are in no snapshot yet: without one, every later start
     // would replay them again
     if (journal_ && !failed_ && !journal_snapshot_in_flight_ &&
