@@ -233,9 +233,11 @@ bool craterRectFits(const PointwiseOp& f, const Rect48& rect, std::int64_t room)
         rect.z[3] - rect.original[3]};
     const std::int64_t disp_lo = *std::min_element(disp.begin(), disp.end());
     const std::int64_t disp_hi = *std::max_element(disp.begin(), disp.end());
-    // z' >= z - limit >= original + disp_lo - limit_hi >= floor; z' <= z + fill <= ceiling,
-    // the fill being share * min(A, limit) (rounded down)
-    if (disp_lo - limit_hi < f.floor48(0))
+    // z' >= z - carve >= original + disp_lo - carve_hi >= floor, the carve being min(-A,
+    // limit) where A < 0; z' <= z + fill <= ceiling, the fill share * min(A, limit) (rounded
+    // down)
+    const std::int64_t carve_hi = std::min(limit_hi, std::max<std::int64_t>(0, -a_lo));
+    if (disp_lo - carve_hi < f.floor48(0))
         return false;
     const std::int64_t fill_hi =
         (std::max<std::int64_t>(0, std::min(limit_hi, a_hi)) * f.ground().ejecta_share) >> 16;
