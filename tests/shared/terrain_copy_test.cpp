@@ -10,7 +10,9 @@ namespace terrain {
 namespace {
 
 // 150 x 140 vertices: 3 x 3 tiles, the last row and column of tiles partly padding
-Terrain hills() { return testing::makeHills(61); }
+Terrain hills() {
+    return testing::makeHills(61);
+}
 
 void crater(Terrain& t, double x, double y, double r = 4.0) {
     auto op = quantizeOp({OpKind::kCrater, x, y, r, 1.5, 0.3}, t.spec());

@@ -166,10 +166,9 @@ Status AtomicFileWriter::commit() {
 }
 
 AtomicFileWriter::AtomicFileWriter(AtomicFileWriter&& other) noexcept
-    : path_(std::move(other.path_)), temp_(std::move(other.temp_)),
-      file_(std::move(other.file_)), written_(other.written_),
-      flushed_from_(other.flushed_from_), failure_(std::move(other.failure_)),
-      owns_temp_(std::exchange(other.owns_temp_, false)) {}
+    : path_(std::move(other.path_)), temp_(std::move(other.temp_)), file_(std::move(other.file_)),
+      written_(other.written_), flushed_from_(other.flushed_from_),
+      failure_(std::move(other.failure_)), owns_temp_(std::exchange(other.owns_temp_, false)) {}
 
 AtomicFileWriter::~AtomicFileWriter() {
     if (owns_temp_) {

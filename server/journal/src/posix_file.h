@@ -83,7 +83,7 @@ class AtomicFileWriter {
     std::filesystem::path path_;
     std::filesystem::path temp_;
     FileHandle file_;
-    std::uint64_t written_ = 0;     // bytes appended
+    std::uint64_t written_ = 0;      // bytes appended
     std::uint64_t flushed_from_ = 0; // start of the range whose writeback is not waited for yet
     std::optional<Error> failure_;
     bool owns_temp_ = true; // false once committed or moved from

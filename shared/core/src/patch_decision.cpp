@@ -100,7 +100,15 @@ struct RegimeBounds {
 // (M side^2 / 4) plus min(P, N), P and N the largest positive and negative values of the
 // argument at the triangle's corners (the kink of x+ over a linear argument). A term whose
 // argument is <= 0 over the whole rectangle is 0. The rim's crease is not bounded here.
-bool kinkFits(const PointwiseOp& f, const Rect48& rect, std::int64_t room, const RegimeBounds& b) {
+// Where the ceiling may bind (`ceiling`), the change is min(change, C), C = ceiling - z linear:
+// change - (change - C)+, whose argument misses its interpolation by the change's own bound;
+// so the bound doubles, plus that kink's min(P, N). (C < 0 at a corner: not bounded here.)
+bool kinkFits(
+    const PointwiseOp& f,
+    const Rect48& rect,
+    std::int64_t room,
+    const RegimeBounds& b,
+    bool ceiling) {
     if (b.crosses_rim)
         return false;
     constexpr std::int64_t kOne = kUnitStrength;
@@ -141,8 +149,26 @@ bool kinkFits(const PointwiseOp& f, const Rect48& rect, std::int64_t room, const
     term(kOne, b.a_hi + b.limit_hi, 1);
     term(kOne - share, b.a_hi, 0);
     term(share, b.a_hi - b.limit_lo, -1);
-    // the corners' terms are the fixed-point ones: a quantum more for them
-    const std::int64_t gap = ceilDiv(ceilDiv(gap16, kOne), kFineScale) + 1;
+    // the corners' terms are the fixed-point ones: a quantum more for them (each time)
+    std::int64_t corner_quanta = 1;
+    if (ceiling) {
+        std::int64_t p = 0;
+        std::int64_t n = 0;
+        for (std::size_t i = 0; i < 4; ++i) {
+            const std::int64_t c = f.ceiling48(rect.original[i]) - rect.z[i];
+            if (c < 0)
+                return false;
+            // the unclamped change at the corner, as PointwiseOp::height has it
+            const std::int64_t change =
+                a[i] < 0 ? -std::min(-a[i], l[i]) : (std::min(a[i], l[i]) * share) >> 16;
+            p = std::max(p, change - c);
+            n = std::max(n, c - change);
+        }
+        scale16 *= 2;
+        gap16 = 2 * gap16 + kOne * std::min(p, n);
+        corner_quanta = 2;
+    }
+    const std::int64_t gap = ceilDiv(ceilDiv(gap16, kOne), kFineScale) + corner_quanta;
     if (gap >= room)
         return false;
     const auto side48 = static_cast<std::uint64_t>(rect.x1 - rect.x0);
@@ -241,8 +267,8 @@ bool craterRectFits(const PointwiseOp& f, const Rect48& rect, std::int64_t room)
         return false;
     const std::int64_t fill_hi =
         (std::max<std::int64_t>(0, std::min(limit_hi, a_hi)) * f.ground().ejecta_share) >> 16;
-    if (disp_hi + fill_hi > f.ceiling48(0))
-        return false;
+    if (disp_hi + fill_hi > f.ceiling48(0)) // a kink more
+        return kinkFits(f, rect, room, {a_lo, a_hi, limit_lo, limit_hi, t_hi, crosses_rim}, true);
     const bool whole_share = f.ground().ejecta_share == kUnitStrength;
     if (a_hi + limit_hi <= 0)
         return limitFits(); // carved by the limit everywhere
@@ -256,7 +282,7 @@ bool craterRectFits(const PointwiseOp& f, const Rect48& rect, std::int64_t room)
         return true; // nothing to fill with: untouched
     if (carved || filled || either)
         return reliefFits();
-    return kinkFits(f, rect, room, {a_lo, a_hi, limit_lo, limit_hi, t_hi, crosses_rim});
+    return kinkFits(f, rect, room, {a_lo, a_hi, limit_lo, limit_hi, t_hi, crosses_rim}, false);
 }
 
 // The fixed-point profile's slack (quanta): 16.16 radius ratio and tapers, about 3 (|height| +
