@@ -202,8 +202,8 @@ bool craterRectFits(const PointwiseOp& f, const Rect48& rect, std::int64_t room)
     const std::int64_t r48 = r * kFineScale;
     if (near2 >= 4 * r48 * r48)
         return true; // beyond the footprint
-    const std::int64_t t_lo = radiusRatio(op, near2);
-    const std::int64_t t_hi = std::min(2 * kOne, radiusRatio(op, fx * fx + fy * fy));
+    const std::int64_t t_lo = f.ratio(near2);
+    const std::int64_t t_hi = std::min(2 * kOne, f.ratio(fx * fx + fy * fy));
     const bool crosses_rim = t_lo < kOne && t_hi > kOne;
     std::int64_t s_lo = 0;
     std::int64_t s_hi = 0;

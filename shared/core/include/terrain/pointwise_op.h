@@ -121,9 +121,11 @@ class PointwiseOp {
     /// (1 - t^2 / 4)^2 in 16.16, 0 from t = 2 on: the taper of the limit and the anchor.
     static std::int64_t taper(std::int64_t ratio);
 
-  private:
-    /// radiusRatio(op_, r2), without its 64-bit division (the footprint loops' hottest step).
+    /// radiusRatio(op(), r2), without its 64-bit division (the footprint loops' hottest step,
+    /// and twice in each square the patch decision proves).
     std::int64_t ratio(std::int64_t r2) const;
+
+  private:
 
     DeformOp op_;
     BlastGround ground_;
