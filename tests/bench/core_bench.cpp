@@ -114,9 +114,9 @@ void BM_SnapshotEncode(benchmark::State& state) {
 }
 BENCHMARK(BM_SnapshotEncode)->Unit(benchmark::kMillisecond);
 
-// what a journal or join snapshot costs the server's io thread: the copy it hands to the
-// snapshot thread (a 1,000-crater world, the patches included)
-void BM_TerrainCopy(benchmark::State& state) {
+// the bench map after 1,000 craters of 6 m spread over it (about 200,000 patches): a battle's
+// world for the copy and snapshot benchmarks
+Terrain battleWorld() {
     Terrain t = benchMap(1.0 / 32.0);
     for (int i = 0; i < 1000; ++i)
         (void)t.apply(*quantizeOp(
@@ -124,6 +124,13 @@ void BM_TerrainCopy(benchmark::State& state) {
                 OpKind::kCrater, 40.0 + (i % 40) * 49.0, 40.0 + (i / 40) * 49.0 + (i % 7), 6.0, 2.4,
                 0.25},
             t.spec()));
+    return t;
+}
+
+// what a journal or join snapshot costs the server's io thread: the copy it hands to the
+// snapshot thread (a 1,000-crater world, the patches included)
+void BM_TerrainCopy(benchmark::State& state) {
+    Terrain t = battleWorld();
     for (auto _ : state) {
         Terrain copy = t;
         benchmark::DoNotOptimize(copy.worldHash());
@@ -135,13 +142,7 @@ BENCHMARK(BM_TerrainCopy)->Unit(benchmark::kMillisecond);
 // What a journal snapshot costs its io thread: bringing the copy it keeps up to date after one
 // more crater, by assignment (arg 0) or by syncFrom (arg 1: the changed tiles only)
 void BM_SnapshotCopyFollows(benchmark::State& state) {
-    Terrain t = benchMap(1.0 / 32.0);
-    for (int i = 0; i < 1000; ++i)
-        (void)t.apply(*quantizeOp(
-            OpRequest{
-                OpKind::kCrater, 40.0 + (i % 40) * 49.0, 40.0 + (i / 40) * 49.0 + (i % 7), 6.0, 2.4,
-                0.25},
-            t.spec()));
+    Terrain t = battleWorld();
     Terrain copy = t;
     const bool sync = state.range(0) == 1;
     int i = 0;
@@ -170,13 +171,7 @@ BENCHMARK(BM_SnapshotCopyFollows)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond)
 // What a journal snapshot costs the snapshot thread on a battle's world: the encode alone
 // (arg 0), and the file written and made durable as the journal does (arg 1)
 void BM_SnapshotWrite(benchmark::State& state) {
-    Terrain t = benchMap(1.0 / 32.0);
-    for (int i = 0; i < 1000; ++i)
-        (void)t.apply(*quantizeOp(
-            OpRequest{
-                OpKind::kCrater, 40.0 + (i % 40) * 49.0, 40.0 + (i / 40) * 49.0 + (i % 7), 6.0, 2.4,
-                0.25},
-            t.spec()));
+    Terrain t = battleWorld();
     const auto dir = std::filesystem::temp_directory_path() / "core_bench_snapshot";
     std::filesystem::create_directories(dir);
     std::size_t bytes = 0;

@@ -126,7 +126,6 @@ class PointwiseOp {
     std::int64_t ratio(std::int64_t r2) const;
 
   private:
-
     DeformOp op_;
     BlastGround ground_;
     std::int64_t depth48_ = 0;
