@@ -31,7 +31,7 @@ std::int32_t reachOfLevel(int level) {
 
 // ---- ids and heights ----------------------------------------------------------------------
 
-Tessellator::DiamondId Tessellator::idOf(LatticePoint p) const {
+DiamondId Tessellator::idOf(LatticePoint p) const {
     if (!insideMap(p))
         return kNoDiamond;
     if (isGridVertex(p))
@@ -50,7 +50,7 @@ Tessellator::DiamondId Tessellator::idOf(LatticePoint p) const {
     return pooledId(block, static_cast<std::uint32_t>(l * kLatticePerCell + k));
 }
 
-Tessellator::DiamondId Tessellator::pooledId(std::int32_t block, std::uint32_t local) const {
+DiamondId Tessellator::pooledId(std::int32_t block, std::uint32_t local) const {
     const int g = grainOf(
         static_cast<std::int32_t>(local % kLatticePerCell),
         static_cast<std::int32_t>(local / kLatticePerCell));
@@ -60,7 +60,7 @@ Tessellator::DiamondId Tessellator::pooledId(std::int32_t block, std::uint32_t l
     return grainId(g, chunk, grainTables().diamond_slot[local]);
 }
 
-Tessellator::DiamondId Tessellator::resolve(LatticePoint p) {
+DiamondId Tessellator::resolve(LatticePoint p) {
     const DiamondId id = idOf(p);
     if (id != kNoDiamond) {
         if (id >= kPooled)
@@ -145,8 +145,7 @@ void Tessellator::resizeDiamondState() {
         grow(grain.heights, vertices);
         grow(grain.base, chunks);
         pooled[g] = diamonds;
-        TERRAIN_ASSERT(
-            diamonds < CandidateHeap::kRangeBase[1] || (g == 2 && diamonds < (1u << 30)));
+        TERRAIN_ASSERT(diamonds < kRangeBase[1] || (g == 2 && diamonds < (1u << 30)));
     }
     // records come a few at a time with ops: an eighth of them to spare, not a doubling
     const auto records = static_cast<std::size_t>(blocks_.recordCapacity());

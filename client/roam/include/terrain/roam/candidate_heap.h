@@ -3,10 +3,11 @@
 // The split/merge candidates waiting to be re-examined, ordered by the eye travel (metres) at
 // which each is due: an indexed binary min-heap over diamond ids, so that a candidate can be
 // re-keyed or taken out in O(log n) when a split, a merge or an op touches it. Entries are
-// also open to sweeps by position (the tessellator's culling sweep, threshold moves). Ids come in
-// dense ranges: below kPooledIds (eager diamonds), and from kPooledIds + kRangeBase[r] for each
-// pooled range r (the diamonds of one grain of the pooled blocks).
+// also open to sweeps by position (the tessellator's culling sweep, threshold moves). Ids are
+// diamond ids (diamond_id.h): a position array per dense range.
 // Pure: no GL, no clocks. Single-threaded.
+
+#include <terrain/roam/diamond_id.h>
 
 #include <array>
 #include <cmath>
@@ -33,16 +34,10 @@ class CandidateHeap {
         return f;
     }
 
-    static constexpr std::uint32_t kPooledIds = 1u << 31;
-    static constexpr int kPooledRanges = 3;
-    /// Offset of each pooled range from kPooledIds.
-    static constexpr std::array<std::uint32_t, kPooledRanges> kRangeBase = {0, 1u << 29, 1u << 30};
-
-    /// The pooled range of a pooled id.
-    static int rangeOf(std::uint32_t id) {
-        const std::uint32_t r = (id - kPooledIds) >> 29;
-        return r >= 2 ? 2 : static_cast<int>(r);
-    }
+    // the id layout, as the heap's users name it (diamond_id.h)
+    static constexpr DiamondId kPooledIds = roam::kPooledIds;
+    static constexpr int kPooledRanges = roam::kPooledRanges;
+    static constexpr std::array<std::uint32_t, kPooledRanges> kRangeBase = roam::kRangeBase;
 
     /// Ids below `eager`, and in each pooled range r below kPooledIds + kRangeBase[r] +
     /// pooled[r], may be held; new ones start outside the heap. A pooled range may shrink: the
@@ -85,8 +80,7 @@ class CandidateHeap {
         if (id < kPooledIds)
             return position_[id];
         const int r = rangeOf(id);
-        return pooled_position_[static_cast<std::size_t>(r)]
-                               [id - kPooledIds - kRangeBase[static_cast<std::size_t>(r)]];
+        return pooled_position_[static_cast<std::size_t>(r)][pooledSlot(id, r)];
     }
     std::int32_t position(std::uint32_t id) const {
         return const_cast<CandidateHeap*>(this)->position(id);

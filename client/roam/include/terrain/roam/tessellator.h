@@ -51,6 +51,7 @@
 #include <terrain/roam/camera.h>
 #include <terrain/roam/candidate_heap.h>
 #include <terrain/roam/detail_blocks.h>
+#include <terrain/roam/diamond_id.h>
 #include <terrain/roam/lattice.h>
 #include <terrain/roam/packed_bounds.h>
 #include <terrain/roam/tile_mesh.h>
@@ -269,11 +270,10 @@ class Tessellator {
     double metresPerFineUnit() const { return metres_per_fine_; }
 
   private:
-    /// Ids: grid vertices, then one centre per detail record (eager, below kPooled); from
-    /// kPooled + kRangeBase[g], kGrainDiamonds[g] per chunk of grain g (block_grains.h's slots).
-    using DiamondId = std::uint32_t;
-    static constexpr DiamondId kNoDiamond = 0xffffffffu;
-    static constexpr DiamondId kPooled = CandidateHeap::kPooledIds;
+    /// Ids (diamond_id.h): grid vertices, then one centre per detail record (eager, below
+    /// kPooled); pooled range g holds grain g's chunks, kGrainDiamonds[g] ids a chunk.
+    static constexpr DiamondId kPooled = kPooledIds;
+    static_assert(kPooledRanges == kGrains);
     static constexpr std::uint8_t kActive = 1;
     static constexpr std::uint8_t kSplitCandidate = 2;
     static constexpr std::uint8_t kMergeCandidate = 4;
@@ -317,11 +317,7 @@ class Tessellator {
     DiamondId resolve(LatticePoint p);
     LatticePoint pointOf(DiamondId id) const;
     std::int64_t heightAt(LatticePoint p) const;
-    static int grainOfId(DiamondId id) { return CandidateHeap::rangeOf(id); }
-    /// Index of a pooled id in its grain's per-diamond arrays.
-    static std::size_t pooledSlot(DiamondId id, int g) {
-        return id - kPooled - CandidateHeap::kRangeBase[static_cast<std::size_t>(g)];
-    }
+    static int grainOfId(DiamondId id) { return rangeOf(id); }
     std::int32_t chunkOfId(DiamondId id, int g) const {
         return static_cast<std::int32_t>(
             pooledSlot(id, g) /
@@ -333,10 +329,10 @@ class Tessellator {
         return grains_[static_cast<std::size_t>(g)].block[idx(chunkOfId(id, g))];
     }
     DiamondId grainId(int g, std::int32_t chunk, std::uint32_t slot) const {
-        return kPooled + CandidateHeap::kRangeBase[static_cast<std::size_t>(g)] +
-               static_cast<DiamondId>(chunk) *
-                   static_cast<DiamondId>(kGrainDiamonds[static_cast<std::size_t>(g)]) +
-               slot;
+        return pooledIdAt(
+            g, static_cast<std::size_t>(chunk) *
+                       static_cast<std::size_t>(kGrainDiamonds[static_cast<std::size_t>(g)]) +
+                   slot);
     }
     std::uint8_t& state(DiamondId id) {
         if (id < grid_count_)
