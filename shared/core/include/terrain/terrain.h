@@ -162,6 +162,22 @@ class Terrain {
         std::uint64_t version = nextTileVersion();
     };
     static std::uint64_t nextTileVersion();
+
+    // apply()'s stages, in order, over one op in flight (deformation.cpp)
+    struct ApplyScratch;
+    void measureFootprint(ApplyScratch& s) const;
+    void computeNewSamples(ApplyScratch& s) const;
+    void judgeCells(ApplyScratch& s, TaskRunner* runner) const;
+    void transformPatch(
+        const ApplyScratch& s,
+        DetailPatch& p,
+        std::int32_t cx,
+        std::int32_t cy,
+        const CellCorners& co,
+        const CellCorners& cn,
+        bool from_base) const;
+    void enforceBorders(ApplyScratch& s) const;
+    void commitOp(ApplyScratch& s, TaskRunner* runner);
     /// Tile t's patches for writing: its own list, cloned first when a copy still shares it.
     std::vector<PatchEntry>& mutablePatches(std::size_t tile);
 
