@@ -133,130 +133,117 @@ Result<Terrain> genesisTerrain(const Options& o) {
     return out;
 }
 
-int serve(const Options& o) {
-    std::setvbuf(stdout, nullptr, _IOLBF, 0);
-    const auto log = std::make_shared<server::LogWriter>(
-        o.log_format == "json" ? server::LogFormat::kJson : server::LogFormat::kText);
-    Result<std::vector<std::uint8_t>> secret = loadSecret(o);
-    if (!secret) {
-        log->error("config.secret", "terrain-server", secret.error().message);
-        return 2;
-    }
-    // while the journal recovers, the probes say alive and not ready (the Server's own
-    // responder takes the port once it exists)
-    std::unique_ptr<server::RecoveryStatus> recovering;
-    if (o.metrics_port >= 0) {
-        auto status =
-            server::RecoveryStatus::start(o.bind, static_cast<std::uint16_t>(o.metrics_port));
-        if (!status) {
-            log->error("server.listen_failed", "terrain-server", status.error().message);
-            return 1;
-        }
-        recovering = std::move(*status);
-    }
-    // an op's cells and tiles on these threads, the io thread among them (recovery's replay too)
-    ThreadPool apply_pool(o.apply_threads);
+/// The world a server starts from: its journal's (recovered, or a new one with the genesis),
+/// or the genesis alone under --no-journal.
+struct OpenedWorld {
     std::optional<journal::Journal> journal;
     std::optional<Terrain> terrain;
     std::uint64_t seq = 0;
     std::optional<journal::RecoveredHistory> history;
     server::RecoveryReport recovery;
+};
+
+/// Opens (or creates) the journal and recovers the world from it, replaying on `apply_pool`.
+/// Returns 0, or the exit code after logging why (2: a bad setting).
+int openWorld(
+    const Options& o, ThreadPool& apply_pool, server::LogWriter& log, OpenedWorld& world) {
     const auto t0 = std::chrono::steady_clock::now();
-    if (!o.no_journal) {
-        Result<journal::Durability> durability = journal::parseDurability(o.durability);
-        if (!durability) {
-            log->error("config.durability", "terrain-server", durability.error().message);
-            return 2;
-        }
-        journal::JournalOptions journal_options{*durability, 2, o.op_log};
-        journal_options.apply_runner = &apply_pool;
-        // segments of 65,536 records (3.7 MB): the time rule snapshots every few seconds, and
-        // a new segment at each cost the io thread two fsyncs (FORMAT.md, "Writing")
-        journal_options.segment_records = 65536;
-        Result<journal::Journal> opened = journal::Journal::open(o.data_dir, journal_options);
-        if (!opened) {
-            log->error("journal.open_failed", "terrain-server", opened.error().message);
-            return 1;
-        }
-        journal.emplace(std::move(*opened));
-        if (journal->empty()) {
-            Result<Terrain> genesis = genesisTerrain(o);
-            if (!genesis) {
-                log->error(
-                    "map.failed", "terrain-server",
-                    strf("map: %s", genesis.error().message.c_str()));
-                return 1;
-            }
-            if (Status s = journal->initialize(*genesis, 0); !s) {
-                log->error("journal.init_failed", "terrain-server", s.error().message);
-                return 1;
-            }
-            terrain.emplace(std::move(*genesis));
-            log->info("journal.new_world", "journal", strf("new world in %s", o.data_dir.c_str()));
-        } else {
-            Result<journal::RecoveredState> recovered = journal->recover(o.op_log);
-            if (!recovered) {
-                log->error(
-                    "journal.recovery_refused", "terrain-server",
-                    strf("recovery refused: %s", recovered.error().message.c_str()));
-                return 1;
-            }
-            recovery.snapshot_seq = recovered->snapshot_seq;
-            recovery.replayed_records = recovered->replayed_records;
-            recovery.seconds =
-                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-            for (const std::string& note : recovered->notes)
-                log->info("journal.note", "journal", note);
-            log->info(
-                "journal.recovered", "journal",
-                strf(
-                    "recovered seq %llu (snapshot %llu + %zu records replayed, hashes verified, "
-                    "%zu torn bytes dropped) in %.0f ms",
-                    static_cast<unsigned long long>(recovered->seq),
-                    static_cast<unsigned long long>(recovered->snapshot_seq),
-                    recovered->replayed_records, recovered->torn_bytes_dropped,
-                    1000.0 * recovery.seconds));
-            seq = recovered->seq;
-            terrain.emplace(std::move(recovered->terrain));
-            history = std::move(recovered->history);
-        }
-    } else {
+    if (o.no_journal) {
         Result<Terrain> genesis = genesisTerrain(o);
         if (!genesis) {
-            log->error(
+            log.error(
                 "map.failed", "terrain-server", strf("map: %s", genesis.error().message.c_str()));
             return 1;
         }
-        terrain.emplace(std::move(*genesis));
-        log->info(
+        world.terrain.emplace(std::move(*genesis));
+        log.info(
             "journal.none", "journal",
             "none (--no-journal): ops are acknowledged without durability");
+        return 0;
     }
-    const double load_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    const WorldSpec spec = terrain->spec();
-    server::Authority authority(std::move(*terrain), seq, o.op_log, &apply_pool);
-    if (history) {
-        // the retained log as it was: clients a few ops behind resume across the restart
-        std::vector<server::LoggedOp> ops;
-        ops.reserve(history->records.size());
-        for (const journal::JournalRecord& r : history->records)
-            ops.push_back({r.seq, r.op, r.world_hash});
-        // without it the world is still whole: clients behind then join by snapshot
-        if (Status s = authority.restoreLog(history->base_seq, history->base_hash, ops); !s)
-            log->info(
-                "journal.log_not_restored", "journal",
-                strf(
-                    "retained log not restored (clients behind will get snapshots): %s",
-                    s.error().message.c_str()));
-        else
-            log->info(
-                "journal.log_restored", "journal",
-                strf(
-                    "%zu ops retained for resumes (from seq %llu)", ops.size(),
-                    static_cast<unsigned long long>(authority.log().resumableFrom())));
+    Result<journal::Durability> durability = journal::parseDurability(o.durability);
+    if (!durability) {
+        log.error("config.durability", "terrain-server", durability.error().message);
+        return 2;
     }
+    journal::JournalOptions journal_options{*durability, 2, o.op_log};
+    journal_options.apply_runner = &apply_pool;
+    // segments of 65,536 records (3.7 MB): the time rule snapshots every few seconds, and
+    // a new segment at each cost the io thread two fsyncs (FORMAT.md, "Writing")
+    journal_options.segment_records = 65536;
+    Result<journal::Journal> opened = journal::Journal::open(o.data_dir, journal_options);
+    if (!opened) {
+        log.error("journal.open_failed", "terrain-server", opened.error().message);
+        return 1;
+    }
+    journal::Journal& journal = world.journal.emplace(std::move(*opened));
+    if (journal.empty()) {
+        Result<Terrain> genesis = genesisTerrain(o);
+        if (!genesis) {
+            log.error(
+                "map.failed", "terrain-server", strf("map: %s", genesis.error().message.c_str()));
+            return 1;
+        }
+        if (Status s = journal.initialize(*genesis, 0); !s) {
+            log.error("journal.init_failed", "terrain-server", s.error().message);
+            return 1;
+        }
+        world.terrain.emplace(std::move(*genesis));
+        log.info("journal.new_world", "journal", strf("new world in %s", o.data_dir.c_str()));
+        return 0;
+    }
+    Result<journal::RecoveredState> recovered = journal.recover(o.op_log);
+    if (!recovered) {
+        log.error(
+            "journal.recovery_refused", "terrain-server",
+            strf("recovery refused: %s", recovered.error().message.c_str()));
+        return 1;
+    }
+    world.recovery.snapshot_seq = recovered->snapshot_seq;
+    world.recovery.replayed_records = recovered->replayed_records;
+    world.recovery.seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    for (const std::string& note : recovered->notes)
+        log.info("journal.note", "journal", note);
+    log.info(
+        "journal.recovered", "journal",
+        strf(
+            "recovered seq %llu (snapshot %llu + %zu records replayed, hashes verified, "
+            "%zu torn bytes dropped) in %.0f ms",
+            static_cast<unsigned long long>(recovered->seq),
+            static_cast<unsigned long long>(recovered->snapshot_seq), recovered->replayed_records,
+            recovered->torn_bytes_dropped, 1000.0 * world.recovery.seconds));
+    world.seq = recovered->seq;
+    world.terrain.emplace(std::move(recovered->terrain));
+    world.history = std::move(recovered->history);
+    return 0;
+}
 
+/// The retained log as it was before the restart: clients a few ops behind resume across it.
+void restoreRetainedLog(
+    server::Authority& authority,
+    const journal::RecoveredHistory& history,
+    server::LogWriter& log) {
+    std::vector<server::LoggedOp> ops;
+    ops.reserve(history.records.size());
+    for (const journal::JournalRecord& r : history.records)
+        ops.push_back({r.seq, r.op, r.world_hash});
+    // without it the world is still whole: clients behind then join by snapshot
+    if (Status s = authority.restoreLog(history.base_seq, history.base_hash, ops); !s)
+        log.info(
+            "journal.log_not_restored", "journal",
+            strf(
+                "retained log not restored (clients behind will get snapshots): %s",
+                s.error().message.c_str()));
+    else
+        log.info(
+            "journal.log_restored", "journal",
+            strf(
+                "%zu ops retained for resumes (from seq %llu)", ops.size(),
+                static_cast<unsigned long long>(authority.log().resumableFrom())));
+}
+
+server::ServerConfig serverConfig(const Options& o, std::vector<std::uint8_t> secret) {
     server::ServerConfig config;
     config.bind_address = o.bind;
     config.port = static_cast<std::uint16_t>(o.port);
@@ -273,40 +260,45 @@ int serve(const Options& o) {
     config.snapshot_cache_max_lag = o.snapshot_cache_lag;
     config.batch_broadcasts = o.batch_broadcasts;
     config.batch_hash_per_op = o.batch_hash_per_op;
-    config.token_secret = *secret;
+    config.token_secret = std::move(secret);
+    return config;
+}
 
-    if (recovering)
-        recovering->stop();
-    asio::io_context io(1);
-    server::Server srv(io, config, authority, journal ? &*journal : nullptr);
-    srv.setLog(log);
-    srv.setRecoveryReport(recovery);
-    if (Status s = srv.start(); !s) {
-        log->error("server.listen_failed", "terrain-server", s.error().message);
-        return 1;
-    }
-    log->info(
+void logListening(
+    const Options& o,
+    const server::Server& srv,
+    const server::Authority& authority,
+    double load_ms,
+    server::LogWriter& log) {
+    const WorldSpec& spec = authority.terrain().spec();
+    log.info(
         "server.listening", "terrain-server",
         strf(
             "%dx%d map, seq %llu, world hash %016llx, loaded in %.0f ms; listening on %s:%u",
             spec.width, spec.height, static_cast<unsigned long long>(authority.seq()),
             static_cast<unsigned long long>(authority.terrain().worldHash()), load_ms,
             o.bind.c_str(), srv.port()));
-    log->info(
+    log.info(
         "server.resume_window", "terrain-server",
         strf(
             "clients up to %llu ops behind resume without a snapshot (--op-log %zu, "
             "--outbound-budget %zu: half of it at 64 bytes an op)",
             static_cast<unsigned long long>(srv.resumeWindow()), o.op_log, o.outbound_budget));
     if (o.metrics_port >= 0)
-        log->info(
+        log.info(
             "server.metrics", "terrain-server",
             strf(
                 "probes and metrics on http://%s:%u (/livez, /readyz, /metrics)", o.bind.c_str(),
                 srv.metricsPort()));
-    if (!o.port_file.empty()) {
-        std::ofstream(o.port_file) << srv.port() << "\n";
-    }
+}
+
+/// Serves until SIGTERM or SIGINT (a drain), or until the server fails (a failed journal: nothing
+/// more may be acknowledged), telling Agones when asked; returns the exit code.
+int runUntilStopped(
+    asio::io_context& io,
+    server::Server& srv,
+    const Options& o,
+    const std::shared_ptr<server::LogWriter>& log) {
     std::optional<server::AgonesSdk> agones;
     if (o.agones) {
         server::AgonesSdk::Options sdk;
@@ -332,7 +324,6 @@ int serve(const Options& o) {
         log->info("server.draining", "terrain-server", strf("signal %d: draining", signal));
         drain();
     });
-    // a failed journal stops the server: nothing more may be acknowledged
     asio::steady_timer watchdog(io);
     std::function<void()> watch = [&] {
         watchdog.expires_after(std::chrono::milliseconds(200));
@@ -366,6 +357,59 @@ int serve(const Options& o) {
         return 1;
     }
     return 0;
+}
+
+/// `terrain-server serve`: the secret, the probes while the world loads, the world, the server,
+/// then serving until stopped.
+int serve(const Options& o) {
+    std::setvbuf(stdout, nullptr, _IOLBF, 0);
+    const auto log = std::make_shared<server::LogWriter>(
+        o.log_format == "json" ? server::LogFormat::kJson : server::LogFormat::kText);
+    Result<std::vector<std::uint8_t>> secret = loadSecret(o);
+    if (!secret) {
+        log->error("config.secret", "terrain-server", secret.error().message);
+        return 2;
+    }
+    // while the journal recovers, the probes say alive and not ready (the Server's own
+    // responder takes the port once it exists)
+    std::unique_ptr<server::RecoveryStatus> recovering;
+    if (o.metrics_port >= 0) {
+        auto status =
+            server::RecoveryStatus::start(o.bind, static_cast<std::uint16_t>(o.metrics_port));
+        if (!status) {
+            log->error("server.listen_failed", "terrain-server", status.error().message);
+            return 1;
+        }
+        recovering = std::move(*status);
+    }
+    // an op's cells and tiles on these threads, the io thread among them (recovery's replay too)
+    ThreadPool apply_pool(o.apply_threads);
+    const auto t0 = std::chrono::steady_clock::now();
+    OpenedWorld world;
+    if (const int code = openWorld(o, apply_pool, *log, world); code != 0)
+        return code;
+    const double load_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    server::Authority authority(std::move(*world.terrain), world.seq, o.op_log, &apply_pool);
+    if (world.history)
+        restoreRetainedLog(authority, *world.history, *log);
+
+    if (recovering)
+        recovering->stop();
+    asio::io_context io(1);
+    server::Server srv(
+        io, serverConfig(o, std::move(*secret)), authority,
+        world.journal ? &*world.journal : nullptr);
+    srv.setLog(log);
+    srv.setRecoveryReport(world.recovery);
+    if (Status s = srv.start(); !s) {
+        log->error("server.listen_failed", "terrain-server", s.error().message);
+        return 1;
+    }
+    logListening(o, srv, authority, load_ms, *log);
+    if (!o.port_file.empty())
+        std::ofstream(o.port_file) << srv.port() << "\n";
+    return runUntilStopped(io, srv, o, log);
 }
 
 int mintToken(const Options& o) {
