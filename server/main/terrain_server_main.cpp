@@ -430,80 +430,88 @@ int mintToken(const Options& o) {
     return 0;
 }
 
+/// One HealthRequest over TCP and its reply (`terrain-server health`, a container's
+/// HEALTHCHECK): connect, write, read until a frame, one step per member as Asio's examples
+/// have it. Any failure stops the loop with its reason in detail().
+class HealthProbe {
+  public:
+    explicit HealthProbe(asio::io_context& io)
+        : io_(io), socket_(io), resolver_(io), reader_(1 << 16) {}
+
+    void start(const std::string& host, const std::string& port) {
+        pb::Envelope request;
+        request.mutable_health_request();
+        wire::appendFrame(request, out_);
+        asio::async_connect(
+            socket_, resolver_.resolve(host, port),
+            [this](const asio::error_code& ec, const asio::ip::tcp::endpoint&) {
+                onConnected(ec);
+            });
+    }
+    /// 0 when the server said it is healthy.
+    int result() const { return result_; }
+    const std::string& detail() const { return detail_; }
+
+  private:
+    void fail(std::string why) {
+        detail_ = std::move(why);
+        io_.stop();
+    }
+    void onConnected(const asio::error_code& ec) {
+        if (ec)
+            return fail("cannot connect: " + ec.message());
+        asio::async_write(
+            socket_, asio::buffer(out_), [this](const asio::error_code& wec, std::size_t) {
+                if (wec)
+                    return fail("write: " + wec.message());
+                readSome();
+            });
+    }
+    void readSome() {
+        auto space = reader_.prepare(4096);
+        socket_.async_read_some(
+            asio::buffer(space.data(), space.size()),
+            [this](const asio::error_code& ec, std::size_t n) { onRead(ec, n); });
+    }
+    void onRead(const asio::error_code& ec, std::size_t n) {
+        if (ec)
+            return fail("read: " + ec.message());
+        reader_.commit(n);
+        auto frame = reader_.next();
+        if (!frame || !frame->has_value())
+            return readSome(); // not a whole frame yet
+        auto env = wire::decodeEnvelope(**frame);
+        if (!env || !env->has_health_reply())
+            return fail("unexpected reply");
+        const pb::HealthReply& h = env->health_reply();
+        result_ = h.healthy() ? 0 : 1;
+        fail(strf(
+            "%s, seq %llu, hash %016llx, %u sessions", h.detail().c_str(),
+            static_cast<unsigned long long>(h.seq()),
+            static_cast<unsigned long long>(h.world_hash()), h.sessions()));
+    }
+
+    asio::io_context& io_;
+    asio::ip::tcp::socket socket_;
+    asio::ip::tcp::resolver resolver_;
+    std::vector<std::uint8_t> out_;
+    wire::FrameReader reader_;
+    int result_ = 1;
+    std::string detail_ = "no reply within 3 s";
+};
+
 int healthCheck(const Options& o) {
     const auto colon = o.connect.rfind(':');
     if (colon == std::string::npos) {
         std::fprintf(stderr, "health: --connect must be host:port\n");
         return 2;
     }
-    const std::string host = o.connect.substr(0, colon);
-    const std::string port = o.connect.substr(colon + 1);
     asio::io_context io;
-    asio::ip::tcp::socket socket(io);
-    asio::ip::tcp::resolver resolver(io);
-    std::vector<std::uint8_t> out;
-    pb::Envelope request;
-    request.mutable_health_request();
-    wire::appendFrame(request, out);
-    wire::FrameReader reader(1 << 16);
-    int result = 1;
-    std::string detail = "no reply within 3 s";
-    asio::async_connect(
-        socket, resolver.resolve(host, port),
-        [&](const asio::error_code& ec, const asio::ip::tcp::endpoint&) {
-            if (ec) {
-                detail = "cannot connect: " + ec.message();
-                io.stop();
-                return;
-            }
-            asio::async_write(
-                socket, asio::buffer(out), [&](const asio::error_code& wec, std::size_t) {
-                    if (wec) {
-                        detail = "write: " + wec.message();
-                        io.stop();
-                        return;
-                    }
-                    std::function<void()> readSome = [&] {
-                        auto space = reader.prepare(4096);
-                        socket.async_read_some(
-                            asio::buffer(space.data(), space.size()),
-                            [&](const asio::error_code& rec, std::size_t n) {
-                                if (rec) {
-                                    detail = "read: " + rec.message();
-                                    io.stop();
-                                    return;
-                                }
-                                reader.commit(n);
-                                auto frame = reader.next();
-                                if (frame && frame->has_value()) {
-                                    auto env = wire::decodeEnvelope(**frame);
-                                    if (env && env->has_health_reply()) {
-                                        const auto& h = env->health_reply();
-                                        result = h.healthy() ? 0 : 1;
-                                        char buf[160];
-                                        std::snprintf(
-                                            buf, sizeof buf,
-                                            "%s, seq %llu, hash %016llx, %u sessions",
-                                            h.detail().c_str(),
-                                            static_cast<unsigned long long>(h.seq()),
-                                            static_cast<unsigned long long>(h.world_hash()),
-                                            h.sessions());
-                                        detail = buf;
-                                    } else {
-                                        detail = "unexpected reply";
-                                    }
-                                    io.stop();
-                                    return;
-                                }
-                                readSome();
-                            });
-                    };
-                    readSome();
-                });
-        });
+    HealthProbe probe(io);
+    probe.start(o.connect.substr(0, colon), o.connect.substr(colon + 1));
     io.run_for(std::chrono::seconds(3));
-    std::printf("health: %s: %s\n", result == 0 ? "ok" : "FAIL", detail.c_str());
-    return result;
+    std::printf("health: %s: %s\n", probe.result() == 0 ? "ok" : "FAIL", probe.detail().c_str());
+    return probe.result();
 }
 
 } // namespace
