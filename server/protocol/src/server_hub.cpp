@@ -436,8 +436,9 @@ std::shared_ptr<const Terrain> ServerHub::followTerrain(std::shared_ptr<Terrain>
 }
 
 void ServerHub::writeJournalSnapshot() {
-    // the journal starts its next segment now and goes on appending; the file is encoded and
-    // written on the snapshot thread, and pruning follows once it is durable
+    // the journal marks the snapshot's seq (a new segment only once the current one is full)
+    // and goes on appending; the file is encoded and written on the snapshot thread, and
+    // pruning follows once it is durable
     if (Status s = journal_->beginSnapshot(broadcast_seq_); !s) {
         fail("journal snapshot failed: " + s.error().message);
         return;
