@@ -22,6 +22,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <new>
 #include <random>
 #include <set>
@@ -318,6 +319,54 @@ Camera overview(const Terrain& t, double above = 300.0) {
     Camera c = lookAt(glm::dvec3(cx, cy, top + above), glm::dvec3(cx, cy, 0.0));
     c.up = glm::dvec3(0.0, 1.0, 0.0);
     return c;
+}
+
+TEST(RoamMesh, ASnapshotReplacingTheWorldInPlaceAfterRefinementRebuildsIt) {
+    // what a replica does on a second snapshot (a re-join): the same object, new contents, with
+    // candidates of the old blocks still in the heap (this crashed before 12-06: the heap was
+    // cleared after its pooled ranges had shrunk)
+    Terrain t = cratered(11, 30);
+    TessellatorOptions o;
+    Tessellator tess(t, o);
+    updateUntilSettled(tess, overview(t));
+    ASSERT_GT(tess.blockCount(), 0);
+    t = cratered(5, 60);
+    tess.terrainChanged({}, true);
+    const Camera cam = overview(t);
+    updateUntilSettled(tess, cam);
+    Tessellator fresh(t, o);
+    updateUntilSettled(fresh, cam);
+    EXPECT_EQ(leaves(tess), leaves(fresh));
+}
+
+TEST(RoamMesh, ARebindReadsTheNewTerrainAsAFreshTessellatorWould) {
+    // the old world goes once rebound (asan: nothing reads it), the next is another of the same
+    // size, then one of another size
+    auto first = std::make_unique<Terrain>(cratered(11, 30));
+    const Terrain same_size = cratered(5, 60);
+    Terrain other_size = makeHills(3, 200, 180);
+    CraterSeries series;
+    series.seed = 3;
+    series.count = 30;
+    applyAll(other_size, randomCraters(other_size.spec(), series));
+    TessellatorOptions o;
+    o.tau_pixels = 1.0;
+    Tessellator tess(*first, o);
+    updateUntilSettled(tess, overview(*first));
+    for (const Terrain* next : {&same_size, static_cast<const Terrain*>(&other_size)}) {
+        tess.rebind(*next);
+        first.reset();
+        const Camera cam = overview(*next);
+        updateUntilSettled(tess, cam);
+        Tessellator fresh(*next, o);
+        updateUntilSettled(fresh, cam);
+        EXPECT_EQ(leaves(tess), leaves(fresh));
+        ASSERT_EQ(tess.tileCount(), fresh.tileCount());
+        for (std::int32_t tile = 0; tile < tess.tileCount(); ++tile)
+            EXPECT_EQ(tess.tileVertexCount(tile), fresh.tileVertexCount(tile)) << tile;
+        EXPECT_EQ(tess.blockCount(), fresh.blockCount());
+        EXPECT_GT(tess.blockCount(), 0) << "the craters were refined below the grid";
+    }
 }
 
 TEST(RoamMesh, SplitMergeConvergesToTheSplitOnlyMesh) {

@@ -22,7 +22,6 @@ Tessellator::Tessellator(const Terrain& terrain, const TessellatorOptions& optio
 
 void Tessellator::adoptSpec() {
     spec_ = terrain_->spec();
-    codec_ = BoundsCodec(spec_.metresPerUnit());
     metres_per_lattice_ = spec_.spacingMetres() / kLatticePerCell;
     metres_per_fine_ = spec_.metresPerUnit() / static_cast<double>(kFineUnitsPerQuantum);
     grid_w_ = spec_.paddedWidth();
@@ -37,25 +36,11 @@ void Tessellator::adoptSpec() {
     tiles_.resize(tiles);
     tile_visible_.assign(tiles, 0);
     tile_snug_.assign(tiles, 0);
-    vertex_version_.assign(tiles, 0);
-    vertex_changes_.clear();
-    vertex_changes_.resize(tiles);
-    vertices_all_.assign(tiles, 1);
-    tile_segments_.clear();
-    tile_segments_.resize(tiles);
-    tile_holes_.clear();
-    tile_holes_.resize(tiles);
-    tile_vertices_.assign(tiles, 0);
-    bounds_.assign(grid_count_, PackedBounds{});
-    bounds_.shrink_to_fit();
-    state_.assign(grid_count_, 0);
-    state_.shrink_to_fit();
-    centre_state_.clear();
-    for (Grain& g : grains_)
-        g = Grain{};
-    block_chunks_.clear();
+    vertices_.reset(tiles);
+    space_.reset(grid_count_, BoundsCodec(spec_.metresPerUnit()));
+    pool_.clear();
+    pool_.restartClock();
     heap_.reset();
-    clock_hand_ = 0;
 }
 
 // ---- candidates ---------------------------------------------------------------------------
@@ -177,7 +162,7 @@ void Tessellator::refineTopDown(
 
 void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
     bookkeeping_ = false;
-    clearAllState();
+    space_.clearStates();
     heap_.clear();
     watched_.clear();
     rekey_.clear();
@@ -206,7 +191,7 @@ void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
         // the cap binds: spend the triangles where the error is largest, not where we began.
         // Split/merge stops short of the cap, so that the next frames have room to follow the
         // view before the threshold must rise again.
-        clearAllState();
+        space_.clearStates();
         triangles_ = roots;
         refused_by_cap_ = false;
         const std::int64_t target =
@@ -472,27 +457,16 @@ void Tessellator::setTau(double tau_pixels) {
 
 TessellatorMemory Tessellator::memory() const {
     TessellatorMemory m;
-    m.grid = bounds_.capacity() * sizeof(PackedBounds) + centre_cache_.capacity() * sizeof(Bounds) +
-             state_.capacity() + centre_state_.capacity();
-    m.records = blocks_.memoryBytes() + block_chunks_.capacity() * sizeof(block_chunks_[0]);
-    for (std::size_t g = 0; g < kGrains; ++g) {
-        const Grain& grain = grains_[g];
-        m.grains[g] = grain.bounds.capacity() * sizeof(PackedBounds) + grain.state.capacity() +
-                      grain.heights.capacity() * sizeof(std::uint32_t) +
-                      grain.base.capacity() * sizeof(std::int64_t) +
-                      (grain.block.capacity() + grain.segment.capacity() + grain.free.capacity()) *
-                          sizeof(std::int32_t) +
-                      grain.used.capacity() * sizeof(std::uint64_t);
-    }
+    const DiamondSpace::Memory space = space_.memory();
+    const BlockPool::Memory pool = pool_.memory();
+    m.grid = space.grid + centre_cache_.capacity() * sizeof(Bounds);
+    m.records = blocks_.memoryBytes() + pool.blocks;
+    for (std::size_t g = 0; g < kGrains; ++g)
+        m.grains[g] = space.chunks[g] + pool.grains[g];
     m.heap = heap_.memoryBytes();
     for (const TileMesh& t : tiles_)
         m.meshes += t.memoryBytes();
-    for (std::size_t t = 0; t < tile_segments_.size(); ++t) {
-        m.meshes += tile_segments_[t].capacity() * sizeof(VertexSegment);
-        m.meshes += vertex_changes_[t].capacity() * sizeof(VertexRange);
-        for (const auto& h : tile_holes_[t])
-            m.meshes += h.capacity() * sizeof(std::int32_t);
-    }
+    m.meshes += vertices_.memoryBytes();
     m.scratch = block_bounds_.memoryBytes() + morph_stamp_.capacity() * sizeof(std::uint32_t);
     return m;
 }

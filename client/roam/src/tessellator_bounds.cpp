@@ -54,7 +54,7 @@ DiamondId Tessellator::pooledId(std::int32_t block, std::uint32_t local) const {
     const int g = grainOf(
         static_cast<std::int32_t>(local % kLatticePerCell),
         static_cast<std::int32_t>(local / kLatticePerCell));
-    const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
+    const std::int32_t chunk = pool_.chunkOf(block, g);
     if (chunk < 0)
         return kNoDiamond;
     return grainId(g, chunk, grainTables().diamond_slot[local]);
@@ -76,7 +76,7 @@ DiamondId Tessellator::resolve(LatticePoint p) {
     if (block < 0 && (block = materialise(record)) < 0)
         return kNoDiamond; // the pool refused
     const int g = grainOf(p.x % kLatticePerCell, p.y % kLatticePerCell);
-    if (block_chunks_[idx(block)][static_cast<std::size_t>(g)] < 0)
+    if (pool_.chunkOf(block, g) < 0)
         materialiseGrain(block, g);
     const DiamondId made = idOf(p);
     if (made != kNoDiamond && made >= kPooled)
@@ -97,11 +97,9 @@ LatticePoint Tessellator::pointOf(DiamondId id) const {
         return {c.x * kLatticePerCell + kCentreLocal, c.y * kLatticePerCell + kCentreLocal};
     }
     const int g = grainOfId(id);
-    const std::size_t slot = pooledSlot(id, g);
-    const auto size = static_cast<std::size_t>(kGrainDiamonds[static_cast<std::size_t>(g)]);
-    const std::int32_t block = grains_[static_cast<std::size_t>(g)].block[slot / size];
+    const std::int32_t block = pool_.blockOf(g, DiamondSpace::chunkOfId(id, g));
     const std::int32_t local =
-        grainTables().diamond_local[static_cast<std::size_t>(g)][slot % size];
+        grainTables().diamond_local[static_cast<std::size_t>(g)][DiamondSpace::slotOfId(id, g)];
     const DetailBlocks::CellXY c = blocks_.cellOf(block);
     return {
         c.x * kLatticePerCell + local % kLatticePerCell,
@@ -118,51 +116,18 @@ std::int64_t Tessellator::heightAt(LatticePoint p) const {
 }
 
 void Tessellator::resizeDiamondState() {
-    const std::size_t eager = grid_count_ + static_cast<std::size_t>(blocks_.recordCapacity());
-    // ids are uint32: eager ones below 2^31 (kNoDiamond reserved), each grain in its range
-    TERRAIN_ASSERT(eager < kPooled);
-    const auto blocks = static_cast<std::size_t>(blocks_.capacity());
-    block_chunks_.resize(blocks, {-1, -1, -1});
-    std::array<std::size_t, kGrains> pooled{};
-    for (std::size_t g = 0; g < kGrains; ++g) {
-        Grain& grain = grains_[g];
-        if (g == 0 && grain.block.size() < blocks) { // grain 0's chunks are the blocks
-            grain.block.resize(blocks, -1);
-            grain.used.resize(blocks, 0);
-            grain.segment.resize(blocks, -1);
-        }
-        const std::size_t chunks = grain.block.size();
-        const std::size_t diamonds = chunks * static_cast<std::size_t>(kGrainDiamonds[g]);
-        const std::size_t vertices = chunks * static_cast<std::size_t>(kGrainVertices[g]);
-        // grow by an eighth, not double: the pool may be most of the memory
-        const auto grow = [](auto& v, std::size_t n) {
-            if (n > v.capacity())
-                v.reserve(n + v.size() / 8);
-            v.resize(n);
-        };
-        grow(grain.bounds, diamonds);
-        grow(grain.state, diamonds);
-        grow(grain.heights, vertices);
-        grow(grain.base, chunks);
-        pooled[g] = diamonds;
-        TERRAIN_ASSERT(diamonds < kRangeBase[1] || (g == 2 && diamonds < (1u << 30)));
-    }
-    // records come a few at a time with ops: an eighth of them to spare, not a doubling
-    const auto records = static_cast<std::size_t>(blocks_.recordCapacity());
-    if (records > centre_state_.capacity())
-        centre_state_.reserve(records + records / 8);
-    centre_state_.resize(records, 0);
-    heap_.resizeIds(eager, pooled);
+    pool_.resizeBlocks(static_cast<std::size_t>(blocks_.capacity()));
+    for (int g = 0; g < kGrains; ++g)
+        space_.resizeChunks(g, pool_.chunkCount(g));
+    space_.resizeCentres(static_cast<std::size_t>(blocks_.recordCapacity()));
+    heap_.resizeIds(space_.eagerCount(), space_.pooledCounts());
 }
 
 // ---- error bounds -------------------------------------------------------------------------
 
 bool Tessellator::storeBounds(DiamondId id, float delta, float zlo, float zhi) {
     TERRAIN_ASSERT(id < grid_count_);
-    const PackedBounds packed = codec_.pack({delta, zlo, zhi});
-    const bool changed = bounds_[id] != packed;
-    bounds_[id] = packed;
-    return changed;
+    return space_.storeBounds(id, {delta, zlo, zhi});
 }
 
 double Tessellator::childBounds(LatticePoint c, double& zlo, double& zhi) const {
@@ -253,7 +218,7 @@ Tessellator::Bounds Tessellator::centreBounds(std::int32_t record) const {
 
 Tessellator::Bounds Tessellator::windowBounds(std::int32_t cx, std::int32_t cy) const {
     const WindowBound w = windowBound(cx, cy);
-    return codec_.outward(
+    return space_.codec().outward(
         {w.cap, roundDown(w.lo * metres_per_fine_ - w.cap),
          roundUp(w.hi * metres_per_fine_ + w.cap)});
 }
@@ -327,7 +292,7 @@ void Tessellator::boundBlocks(std::span<const std::int32_t> blocks, bool collect
             const std::int32_t b = pass_blocks_[i];
             unsigned mask = 0;
             for (int g = 0; g < kGrains; ++g)
-                if (block_chunks_[idx(b)][static_cast<std::size_t>(g)] >= 0)
+                if (pool_.chunkOf(b, g) >= 0)
                     mask |= 1u << g;
             storeGrains(i - first, b, mask, collect);
             if (prefetch_view_ != nullptr)
@@ -345,20 +310,15 @@ void Tessellator::storeGrains(
     for (int g = 0; g < kGrains; ++g) {
         if ((grain_mask & (1u << g)) == 0)
             continue;
-        Grain& grain = grains_[static_cast<std::size_t>(g)];
-        const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
+        const std::int32_t chunk = pool_.chunkOf(block, g);
         const auto diamonds = static_cast<std::size_t>(kGrainDiamonds[static_cast<std::size_t>(g)]);
-        const std::size_t base = idx(chunk) * diamonds;
         for (std::size_t slot = 0; slot < diamonds; ++slot) {
             const std::uint8_t local = tables.diamond_local[static_cast<std::size_t>(g)][slot];
             if (g == 0 && (local == 0 || local == kCentreLocal * kLatticePerCell + kCentreLocal))
                 continue; // the grid vertex and the (eager) centre
-            const PackedBounds packed = codec_.pack(block_bounds_.bounds(i, local));
-            PackedBounds& stored = grain.bounds[base + slot];
-            const bool changed = stored != packed;
-            stored = packed;
-            if (changed && collect)
-                recomputed_.push_back(grainId(g, chunk, static_cast<std::uint32_t>(slot)));
+            const DiamondId id = grainId(g, chunk, static_cast<std::uint32_t>(slot));
+            if (space_.storeBounds(id, block_bounds_.bounds(i, local)) && collect)
+                recomputed_.push_back(id);
         }
     }
 }
@@ -366,20 +326,20 @@ void Tessellator::storeGrains(
 void Tessellator::storeHeights(std::int32_t block, unsigned grain_mask) {
     const GrainTables& tables = grainTables();
     for (int g = 0; g < kGrains; ++g) {
-        const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
+        const std::int32_t chunk = pool_.chunkOf(block, g);
         if ((grain_mask & (1u << g)) == 0 || chunk < 0)
             continue;
-        Grain& grain = grains_[static_cast<std::size_t>(g)];
         const auto vertices = static_cast<std::size_t>(kGrainVertices[static_cast<std::size_t>(g)]);
         const auto& local = tables.vertex_local[static_cast<std::size_t>(g)];
         std::int64_t lowest = heights_scratch_[local[0]];
         for (std::size_t v = 1; v < vertices; ++v)
             lowest = std::min(lowest, heights_scratch_[local[v]]);
-        bool moved = grain.base[idx(chunk)] != lowest;
-        grain.base[idx(chunk)] = lowest;
+        bool moved = pool_.base(g, chunk) != lowest;
+        pool_.base(g, chunk) = lowest;
+        const std::span<std::uint32_t> heights = pool_.heights(g, chunk);
         for (std::size_t v = 0; v < vertices; ++v) {
             const auto h = static_cast<std::uint32_t>(heights_scratch_[local[v]] - lowest);
-            std::uint32_t& stored = grain.heights[idx(chunk) * vertices + v];
+            std::uint32_t& stored = heights[v];
             moved = moved || stored != h;
             stored = h;
         }
@@ -387,49 +347,20 @@ void Tessellator::storeHeights(std::int32_t block, unsigned grain_mask) {
         // again (heights freshened after the op's own bump, or by a later bounds pass)
         if (moved)
             if (const std::int32_t tile = tileOfCell(blocks_.cellOf(block)); tile >= 0) {
-                ++vertex_version_[idx(tile)];
-                if (const std::int32_t segment = grain.segment[idx(chunk)]; segment >= 0) {
-                    const auto first = static_cast<std::uint32_t>(
-                        kBaseVertices + tile_segments_[idx(tile)][idx(segment)].offset);
-                    markVertices(tile, first, first + static_cast<std::uint32_t>(vertices));
+                vertices_.bumpVersion(tile);
+                if (const std::int32_t segment = pool_.segment(g, chunk); segment >= 0) {
+                    const std::uint32_t first = vertices_.firstVertex(tile, segment);
+                    vertices_.mark(tile, first, first + static_cast<std::uint32_t>(vertices));
                 }
             }
     }
 }
 
-void Tessellator::markStale(CellRect cells) {
-    // the bounds of the blocks whose 3 x 3 window meets the change wait for the frames' budget
-    // (drainStale); the heights of those whose surface changed must be new by the end of the
-    // next update(), before anything draws them (freshenHeights), or the mesh would crack
-    const CellRect around{
-        std::max(0, cells.x0 - 1), std::max(0, cells.y0 - 1),
-        std::min(blocks_.cellsX() - 1, cells.x1 + 1), std::min(blocks_.cellsY() - 1, cells.y1 + 1)};
-    block_stale_.resize(idx(blocks_.capacity()), 0);
-    for (std::int32_t cy = around.y0; cy <= around.y1; ++cy)
-        for (std::int32_t cx = around.x0; cx <= around.x1; ++cx) {
-            const std::int32_t b = blocks_.blockOf(cx, cy);
-            if (b < 0)
-                continue;
-            if (block_stale_[idx(b)] == 0)
-                stale_.push_back(b);
-            block_stale_[idx(b)] |= kStaleBounds;
-            // the cells whose surface changed; and a padding cell beside the real map's last
-            // line, whose corners there are real samples an op may move (it is never drawn, but
-            // its block holds them)
-            const bool changed =
-                cx >= cells.x0 && cx <= cells.x1 && cy >= cells.y0 && cy <= cells.y1;
-            if (changed || cx >= spec_.cellsX() || cy >= spec_.cellsY())
-                block_stale_[idx(b)] |= kStaleHeights;
-        }
-}
-
 void Tessellator::freshenHeights() {
     // the blocks the budget left stale: their heights now, at their grains' vertices only
-    for (const std::int32_t b : stale_) {
-        if ((block_stale_[idx(b)] & kStaleHeights) == 0)
-            continue;
-        block_stale_[idx(b)] = static_cast<std::uint8_t>(block_stale_[idx(b)] & ~kStaleHeights);
-        const auto& chunks = block_chunks_[idx(b)];
+    stale_.takeHeights(heights_due_);
+    for (const std::int32_t b : heights_due_) {
+        const BlockPool::Chunks& chunks = pool_.chunksOf(b);
         const std::int32_t stride = chunks[2] >= 0 ? 1 : chunks[1] >= 0 ? 2 : 4;
         const DetailBlocks::CellXY c = blocks_.cellOf(b);
         fillCellHeights(*terrain_, c.x, c.y, heights_scratch_, stride);
@@ -438,18 +369,9 @@ void Tessellator::freshenHeights() {
 }
 
 std::int64_t Tessellator::drainStale(std::int64_t budget) {
-    // oldest first; a block evicted since (its flag cleared) is skipped, and one made since
-    // has its bounds from the terrain as it is
-    pass_.clear();
-    std::size_t taken = 0;
-    while (taken < stale_.size() && static_cast<std::int64_t>(pass_.size()) < budget) {
-        const std::int32_t b = stale_[taken++];
-        if (idx(b) < block_stale_.size() && block_stale_[idx(b)] != 0) {
-            block_stale_[idx(b)] = 0; // the pass stores its heights too
-            pass_.push_back(b);
-        }
-    }
-    stale_.erase(stale_.begin(), stale_.begin() + static_cast<std::ptrdiff_t>(taken));
+    // oldest first; a block evicted since is skipped, and one made since has its bounds from
+    // the terrain as it is; the pass stores their heights too
+    stale_.take(budget, pass_);
     if (pass_.empty())
         return 0;
     recomputed_.clear();

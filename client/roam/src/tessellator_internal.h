@@ -29,12 +29,6 @@ inline constexpr double kCapLow = 0.8;
 inline constexpr double kCapStepUp = 1.1;
 inline constexpr double kCapStepMax = 2.0;
 inline constexpr double kCapStepDown = 1.05;
-/// Block slots the idle sweep looks at per frame (Tessellator::sweepIdleBlocks).
-inline constexpr std::size_t kIdleSweep = 512;
-/// A grain's chunk arrays are compacted once a quarter of them is free (and they hold at least
-/// kTrimMinChunks), moving up to kTrimMoves chunks a frame.
-inline constexpr std::size_t kTrimMinChunks = 256;
-inline constexpr std::size_t kTrimMoves = 256;
 /// A tile's index list with slack (TileMesh::hasSlack) for this many frames is shrunk, each
 /// tile checked every kTileShrinkEvery frames.
 inline constexpr std::uint64_t kTileSlackFrames = 600;

@@ -60,20 +60,14 @@ Tessellator::vertexAt(LatticePoint v, const Triangle& t, std::int32_t tile) cons
     const std::int32_t k = v.x - cx * kLatticePerCell;
     const std::int32_t l = v.y - cy * kLatticePerCell;
     const int g = grainOf(k, l);
-    const Grain& grain = grains_[static_cast<std::size_t>(g)];
-    const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
+    const std::int32_t chunk = pool_.chunkOf(block, g);
     TERRAIN_ASSERT(chunk >= 0);
-    const std::int32_t segment = grain.segment[idx(chunk)];
+    const std::int32_t segment = pool_.segment(g, chunk);
     const std::uint16_t slot =
         grainTables().vertex_slot[static_cast<std::size_t>(l * kBlockSide + k)];
     return {
-        static_cast<std::uint32_t>(
-            kBaseVertices + tile_segments_[idx(tile)][idx(segment)].offset + slot),
-        grain.base[idx(chunk)] +
-            grain.heights
-                [idx(chunk) *
-                     static_cast<std::size_t>(kGrainVertices[static_cast<std::size_t>(g)]) +
-                 slot]};
+        vertices_.firstVertex(tile, segment) + slot,
+        pool_.base(g, chunk) + pool_.heights(g, chunk)[slot]};
 }
 
 bool Tessellator::hasActiveChild(const Diamond& d) const {
@@ -171,7 +165,7 @@ bool Tessellator::activate(const Diamond& d, DiamondId id, bool forced, FrameSta
         const std::int32_t record = static_cast<std::int32_t>(id - grid_count_);
         if (blocks_.blockOfRecord(record) < 0 && materialise(record) < 0)
             return false; // the pool refused
-        grains_[0].used[idx(blocks_.blockOfRecord(record))] = use_epoch_;
+        pool_.markBlockUsed(blocks_.blockOfRecord(record), use_epoch_);
     }
     const std::int64_t gain = splitGain(d);
     if (triangles_ + gain > options_.max_triangles) {
@@ -287,28 +281,6 @@ void Tessellator::emitTile(std::int32_t tile) {
         emitTriangle(triangleOf(root, a), tile, mesh);
 }
 
-void Tessellator::markVertices(std::int32_t tile, std::uint32_t begin, std::uint32_t end) {
-    if (vertices_all_[idx(tile)] != 0 || begin >= end)
-        return;
-    auto& ranges = vertex_changes_[idx(tile)];
-    if (!ranges.empty() && ranges.back().end == begin) {
-        ranges.back().end = end; // the next run of a row, the next segment
-        return;
-    }
-    if (ranges.size() >= kMaxVertexRanges) {
-        // no renderer is taking this tile's changes: it loads whole when one does
-        vertices_all_[idx(tile)] = 1;
-        std::vector<VertexRange>().swap(ranges);
-        return;
-    }
-    ranges.push_back({begin, end});
-}
-
-void Tessellator::takeVertexChanges(std::int32_t tile) {
-    vertex_changes_[idx(tile)].clear();
-    vertices_all_[idx(tile)] = 0;
-}
-
 void Tessellator::markChangedSurface(CellRect cells) {
     // base vertices: a sample moved at the corners of the cells (x0..x1+1), and a base normal
     // reads the samples one step either side; a block vertex's normal reads the surface one
@@ -333,7 +305,7 @@ void Tessellator::markChangedSurface(CellRect cells) {
         for (std::int32_t tx = std::max(0, (vx0 - 1) / kTileCells);
              tx <= std::min(vx1 / kTileCells, spec_.tilesX() - 1); ++tx) {
             const std::int32_t tile = ty * spec_.tilesX() + tx;
-            if (vertices_all_[idx(tile)] != 0)
+            if (vertices_.allChanged(tile))
                 continue;
             const std::int32_t gx0 = std::max(vx0 - tx * kTileCells, 0);
             const std::int32_t gx1 = std::min(vx1 - tx * kTileCells, kTileCells);
@@ -341,27 +313,20 @@ void Tessellator::markChangedSurface(CellRect cells) {
             const std::int32_t gy1 = std::min(vy1 - ty * kTileCells, kTileCells);
             if (gx0 <= gx1)
                 for (std::int32_t gy = gy0; gy <= gy1; ++gy)
-                    markVertices(
+                    vertices_.mark(
                         tile, static_cast<std::uint32_t>(gy * kTileVertices + gx0),
                         static_cast<std::uint32_t>(gy * kTileVertices + gx1 + 1));
-            for (const VertexSegment& seg : tile_segments_[idx(tile)]) {
+            for (const VertexSegment& seg : vertices_.segments(tile)) {
                 if (seg.chunk < 0)
                     continue;
                 const auto g = static_cast<std::size_t>(seg.grain);
-                const DetailBlocks::CellXY c = blocks_.cellOf(grains_[g].block[idx(seg.chunk)]);
+                const DetailBlocks::CellXY c = blocks_.cellOf(pool_.blockOf(seg.grain, seg.chunk));
                 if (c.x < blocks.x0 || c.x > blocks.x1 || c.y < blocks.y0 || c.y > blocks.y1)
                     continue;
                 const auto first = static_cast<std::uint32_t>(kBaseVertices + seg.offset);
-                markVertices(tile, first, first + static_cast<std::uint32_t>(kGrainVertices[g]));
+                vertices_.mark(tile, first, first + static_cast<std::uint32_t>(kGrainVertices[g]));
             }
         }
-}
-
-void Tessellator::clearTileVertices(std::int32_t tile) {
-    tile_segments_[idx(tile)].clear();
-    for (auto& holes : tile_holes_[idx(tile)])
-        holes.clear();
-    tile_vertices_[idx(tile)] = 0;
 }
 
 std::int32_t Tessellator::tileOfCell(DetailBlocks::CellXY c) const {
@@ -373,49 +338,24 @@ std::int32_t Tessellator::tileOfCell(DetailBlocks::CellXY c) const {
 }
 
 void Tessellator::attachGrain(std::int32_t block, int g) {
-    Grain& grain = grains_[static_cast<std::size_t>(g)];
-    const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
+    const std::int32_t chunk = pool_.chunkOf(block, g);
     const std::int32_t tile = tileOfCell(blocks_.cellOf(block));
-    if (tile < 0) {
-        grain.segment[idx(chunk)] = -1;
+    if (tile < 0) { // a virtual cell past the grid: nothing draws it
+        pool_.segment(g, chunk) = -1;
         return;
     }
-    auto& segments = tile_segments_[idx(tile)];
-    auto& holes = tile_holes_[idx(tile)][static_cast<std::size_t>(g)];
-    std::int32_t segment = 0;
-    if (!holes.empty()) {
-        segment = holes.back();
-        holes.pop_back();
-    } else {
-        segment = static_cast<std::int32_t>(segments.size());
-        segments.push_back({tile_vertices_[idx(tile)], -1, g});
-        tile_vertices_[idx(tile)] += kGrainVertices[static_cast<std::size_t>(g)];
-    }
-    segments[idx(segment)].chunk = chunk;
-    grain.segment[idx(chunk)] = segment;
-    ++vertex_version_[idx(tile)];
-    const auto first = static_cast<std::uint32_t>(kBaseVertices + segments[idx(segment)].offset);
-    markVertices(
-        tile, first,
-        first + static_cast<std::uint32_t>(kGrainVertices[static_cast<std::size_t>(g)]));
+    pool_.segment(g, chunk) = vertices_.attach(tile, g, chunk);
     upload_vertices_ += kGrainVertices[static_cast<std::size_t>(g)];
 }
 
 void Tessellator::detachGrain(std::int32_t block, int g) {
-    Grain& grain = grains_[static_cast<std::size_t>(g)];
-    const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
-    const std::int32_t segment = grain.segment[idx(chunk)];
-    grain.segment[idx(chunk)] = -1;
+    const std::int32_t chunk = pool_.chunkOf(block, g);
+    const std::int32_t segment = pool_.segment(g, chunk);
+    pool_.segment(g, chunk) = -1;
     const std::int32_t tile = tileOfCell(blocks_.cellOf(block));
     if (tile < 0 || segment < 0)
         return;
-    tile_segments_[idx(tile)][idx(segment)].chunk = -1;
-    tile_holes_[idx(tile)][static_cast<std::size_t>(g)].push_back(segment);
-    ++vertex_version_[idx(tile)];
-}
-
-std::int32_t Tessellator::tileVertexCount(std::int32_t tile) const {
-    return kBaseVertices + tile_vertices_[idx(tile)];
+    vertices_.detach(tile, g, segment);
 }
 
 TileVertex Tessellator::tileVertex(std::int32_t tile, std::uint32_t index) const {
@@ -431,7 +371,7 @@ TileVertex Tessellator::tileVertex(std::int32_t tile, std::uint32_t index) const
             {-1, -1}};
     }
     const std::int32_t r = i - kBaseVertices;
-    const auto& segments = tile_segments_[idx(tile)];
+    const std::span<const VertexSegment> segments = vertices_.segments(tile);
     // segments are in offset order: the last one starting at or before r holds it
     const auto it = std::upper_bound(
         segments.begin(), segments.end(), r,
@@ -442,12 +382,11 @@ TileVertex Tessellator::tileVertex(std::int32_t tile, std::uint32_t index) const
     const auto g = static_cast<std::size_t>(seg.grain);
     const auto slot = static_cast<std::size_t>(r - seg.offset);
     const std::uint16_t local = grainTables().vertex_local[g][slot];
-    const DetailBlocks::CellXY c = blocks_.cellOf(grains_[g].block[idx(seg.chunk)]);
+    const DetailBlocks::CellXY c = blocks_.cellOf(pool_.blockOf(seg.grain, seg.chunk));
     const LatticePoint origin{c.x * kLatticePerCell, c.y * kLatticePerCell};
     return {
         {origin.x + local % kBlockSide, origin.y + local / kBlockSide},
-        grains_[g].base[idx(seg.chunk)] +
-            grains_[g].heights[idx(seg.chunk) * static_cast<std::size_t>(kGrainVertices[g]) + slot],
+        pool_.base(seg.grain, seg.chunk) + pool_.heights(seg.grain, seg.chunk)[slot],
         origin};
 }
 
@@ -461,7 +400,7 @@ void Tessellator::tileVertices(
     if (i == end)
         return;
     const GrainTables& tables = grainTables();
-    const auto& segments = tile_segments_[idx(tile)];
+    const std::span<const VertexSegment> segments = vertices_.segments(tile);
     // the segment holding i, then on through the next ones
     const auto r = static_cast<std::int32_t>(i) - kBaseVertices;
     auto it = std::upper_bound(
@@ -479,10 +418,10 @@ void Tessellator::tileVertices(
                 out[i - first] = stand_in;
             continue;
         }
-        const DetailBlocks::CellXY c = blocks_.cellOf(grains_[g].block[idx(seg.chunk)]);
+        const DetailBlocks::CellXY c = blocks_.cellOf(pool_.blockOf(seg.grain, seg.chunk));
         const LatticePoint origin{c.x * kLatticePerCell, c.y * kLatticePerCell};
-        const std::int64_t base = grains_[g].base[idx(seg.chunk)];
-        const std::uint32_t* heights = grains_[g].heights.data() + idx(seg.chunk) * n;
+        const std::int64_t base = pool_.base(seg.grain, seg.chunk);
+        const std::uint32_t* heights = pool_.heights(seg.grain, seg.chunk).data();
         for (; i < end && i < seg_first + n; ++i) {
             const std::uint16_t local = tables.vertex_local[g][i - seg_first];
             out[i - first] = {
@@ -498,7 +437,7 @@ void Tessellator::tileVertices(std::int32_t tile, std::span<TileVertex> out) con
     for (std::uint32_t i = 0; i < static_cast<std::uint32_t>(kBaseVertices); ++i)
         out[i] = tileVertex(tile, i);
     const GrainTables& tables = grainTables();
-    for (const VertexSegment& seg : tile_segments_[idx(tile)]) {
+    for (const VertexSegment& seg : vertices_.segments(tile)) {
         const auto g = static_cast<std::size_t>(seg.grain);
         const auto first = static_cast<std::size_t>(kBaseVertices + seg.offset);
         const auto n = static_cast<std::size_t>(kGrainVertices[g]);
@@ -506,10 +445,10 @@ void Tessellator::tileVertices(std::int32_t tile, std::span<TileVertex> out) con
             std::fill_n(out.begin() + static_cast<std::ptrdiff_t>(first), n, out[0]);
             continue;
         }
-        const DetailBlocks::CellXY c = blocks_.cellOf(grains_[g].block[idx(seg.chunk)]);
+        const DetailBlocks::CellXY c = blocks_.cellOf(pool_.blockOf(seg.grain, seg.chunk));
         const LatticePoint origin{c.x * kLatticePerCell, c.y * kLatticePerCell};
-        const std::int64_t base = grains_[g].base[idx(seg.chunk)];
-        const std::uint32_t* heights = grains_[g].heights.data() + idx(seg.chunk) * n;
+        const std::int64_t base = pool_.base(seg.grain, seg.chunk);
+        const std::uint32_t* heights = pool_.heights(seg.grain, seg.chunk).data();
         for (std::size_t v = 0; v < n; ++v) {
             const std::uint16_t local = tables.vertex_local[g][v];
             out[first + v] = {
@@ -528,23 +467,22 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
         // a snapshot may bring another world (size, spacing): start from its spec
         if (tiles_.empty() || !(terrain_->spec() == spec_))
             adoptSpec();
+        // the heap forgets its ids before their ranges shrink with the pool (clear() writes to
+        // each held id's position)
+        heap_.clear();
         blocks_.reset(*terrain_); // records only: no block resident
         stale_.clear();
-        block_stale_.clear();
-        for (Grain& g : grains_)
-            g = Grain{};
-        block_chunks_.clear();
+        pool_.clear();
+        space_.dropChunks();
         resizeDiamondState();
-        clearAllState();
-        heap_.clear();
+        space_.clearStates();
         watched_.clear();
         rekey_.clear();
         due_.clear();
         for (std::int32_t tile = 0; tile < tileCount(); ++tile) {
-            clearTileVertices(tile);
-            ++vertex_version_[idx(tile)];
-            vertex_changes_[idx(tile)].clear();
-            vertices_all_[idx(tile)] = 1;
+            vertices_.clearTile(tile);
+            vertices_.bumpVersion(tile);
+            vertices_.markAll(tile);
         }
         recomputeBounds({}, true, false);
         needs_rebuild_ = true;
@@ -608,8 +546,8 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
              ty <= std::min(r.y1 / kTileCells, spec_.tilesY() - 1); ++ty)
             for (std::int32_t tx = std::max(0, r.x0) / kTileCells;
                  tx <= std::min(r.x1 / kTileCells, spec_.tilesX() - 1); ++tx)
-                ++vertex_version_[idx(ty * spec_.tilesX() + tx)];
-        markStale(r);
+                vertices_.bumpVersion(ty * spec_.tilesX() + tx);
+        stale_.mark(r, blocks_, spec_.cellsX(), spec_.cellsY());
         recomputed_.clear();
         recomputeBounds(r, false, true);
         if (initialized_ && !needs_rebuild_) {

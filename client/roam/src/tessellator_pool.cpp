@@ -1,7 +1,8 @@
-// The tessellator's pool of detail blocks: a detail cell's heights and finer diamonds exist only
-// while the view refines it. A block is materialised when a split needs it, and evicted (clock
-// order) when the pool needs its slot and no diamond refers to it; a block used in the current
-// frame is never evicted, so ids held across a split stay valid.
+// The tessellator's side of the block pool (block_pool.h keeps the chunks and the rules): a
+// detail cell's heights and finer diamonds exist only while the view refines it. A block is
+// materialised when a split needs it, and evicted when the pool needs its slot and no diamond
+// refers to it; a block used in the current frame is never evicted, so ids held across a split
+// stay valid. Here the pool's decisions reach the tiles' vertex arrays, the heap and the bounds.
 
 #include "tessellator_internal.h"
 
@@ -16,13 +17,6 @@ namespace terrain::roam {
 
 using namespace detail;
 
-void Tessellator::clearAllState() {
-    std::fill(state_.begin(), state_.end(), std::uint8_t{0});
-    std::fill(centre_state_.begin(), centre_state_.end(), std::uint8_t{0});
-    for (Grain& g : grains_)
-        std::fill(g.state.begin(), g.state.end(), std::uint8_t{0});
-}
-
 void Tessellator::refuse(bool pool) {
     refused_by_cap_ = true;
     if (pool) {
@@ -31,223 +25,119 @@ void Tessellator::refuse(bool pool) {
     }
 }
 
-bool Tessellator::grainPinned(int g, std::int32_t chunk) const {
-    const Grain& grain = grains_[static_cast<std::size_t>(g)];
-    const auto size = static_cast<std::size_t>(kGrainDiamonds[static_cast<std::size_t>(g)]);
-    const auto first = grain.state.begin() + static_cast<std::ptrdiff_t>(idx(chunk) * size);
-    return std::any_of(
-        first, first + static_cast<std::ptrdiff_t>(size), [](std::uint8_t s) { return s != 0; });
-}
-
-bool Tessellator::pinned(std::int32_t block) const {
-    // the centre split means the cell's triangles use the block's vertices; any state means a
-    // diamond of the block is split or a candidate (held in the heap or a list)
-    if (active(centreId(blocks_.recordOfBlock(block))))
-        return true;
-    for (int g = 0; g < kGrains; ++g)
-        if (const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
-            chunk >= 0 && grainPinned(g, chunk))
-            return true;
-    return false;
-}
-
 std::int32_t Tessellator::pinnedBlockCount() const {
     std::int32_t n = 0;
     for (std::int32_t b = 0; b < blocks_.capacity(); ++b)
-        n += blocks_.inUse(b) && pinned(b) ? 1 : 0;
+        n += blocks_.inUse(b) && pool_.referenced(b, blocks_, space_) ? 1 : 0;
     return n;
 }
 
 std::array<std::int32_t, kGrains> Tessellator::grainCounts() const {
     std::array<std::int32_t, kGrains> n{};
-    for (std::size_t g = 0; g < kGrains; ++g)
-        for (const std::int32_t b : grains_[g].block)
-            n[g] += b >= 0 ? 1 : 0;
+    for (int g = 0; g < kGrains; ++g)
+        for (std::size_t c = 0; c < pool_.chunkCount(g); ++c)
+            n[static_cast<std::size_t>(g)] +=
+                pool_.blockOf(g, static_cast<std::int32_t>(c)) >= 0 ? 1 : 0;
     return n;
 }
 
 void Tessellator::releaseGrain(std::int32_t block, int g) {
     // no diamond of the grain is split or a candidate, so no triangle uses its vertices
-    Grain& grain = grains_[static_cast<std::size_t>(g)];
-    const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
-    const auto size = static_cast<std::size_t>(kGrainDiamonds[static_cast<std::size_t>(g)]);
-    for (std::size_t slot = 0; slot < size; ++slot) {
-        TERRAIN_ASSERT(!heap_.contains(grainId(g, chunk, static_cast<std::uint32_t>(slot))));
-        grain.state[idx(chunk) * size + slot] = 0;
-    }
+    const std::int32_t chunk = pool_.chunkOf(block, g);
+    for (std::uint32_t slot = 0; slot < static_cast<std::uint32_t>(kGrainDiamonds[idx(g)]); ++slot)
+        TERRAIN_ASSERT(!heap_.contains(grainId(g, chunk, slot)));
+    space_.clearChunk(g, chunk);
     detachGrain(block, g);
-    grain.block[idx(chunk)] = -1;
-    if (g > 0) {
-        grain.free.push_back(chunk);
-        std::push_heap(grain.free.begin(), grain.free.end(), std::greater<>());
-        block_chunks_[idx(block)][static_cast<std::size_t>(g)] = -1;
-    }
+    pool_.releaseChunk(block, g);
 }
 
 void Tessellator::evict(std::int32_t block) {
     for (int g = kGrains - 1; g >= 0; --g)
-        if (block_chunks_[idx(block)][static_cast<std::size_t>(g)] >= 0)
+        if (pool_.chunkOf(block, g) >= 0)
             releaseGrain(block, g);
-    block_chunks_[idx(block)] = {-1, -1, -1};
-    if (idx(block) < block_stale_.size())
-        block_stale_[idx(block)] = 0; // its place in stale_ is skipped
+    pool_.releaseBlock(block);
+    stale_.forget(block); // its place in the queue is skipped
     if (const std::int32_t tile = tileOfCell(blocks_.cellOf(block)); tile >= 0)
-        ++vertex_version_[idx(tile)];
+        vertices_.bumpVersion(tile);
     blocks_.release(block);
     ++evicted_;
 }
 
 bool Tessellator::evictOne() {
-    const auto slots = static_cast<std::size_t>(blocks_.capacity());
-    for (std::size_t step = 0; step < slots; ++step) {
-        const auto block = static_cast<std::int32_t>(clock_hand_ % slots);
-        clock_hand_ = (clock_hand_ + 1) % slots;
-        if (!blocks_.inUse(block) || grains_[0].used[idx(block)] == use_epoch_ || pinned(block))
-            continue;
-        evict(block);
-        return true;
-    }
-    return false;
+    const std::int32_t block = pool_.evictionVictim(blocks_, space_, use_epoch_);
+    if (block < 0)
+        return false;
+    evict(block);
+    return true;
 }
 
 void Tessellator::sweepIdleBlocks() {
     // memory follows the view: a block out of reach goes after a while even when the pool has
-    // room, and so does a finer grain no split needs any more. A slot is checked about every
-    // capacity / kIdleSweep frames, so an idle block goes between idle and idle + that many
-    // frames after its last use.
-    const auto idle = static_cast<std::uint64_t>(options_.detail_block_idle_frames);
-    const auto slots = static_cast<std::size_t>(blocks_.capacity());
-    if (idle == 0 || slots == 0)
-        return;
-    for (std::size_t step = 0; step < std::min(slots, kIdleSweep); ++step) {
-        const auto block = static_cast<std::int32_t>(idle_hand_ % slots);
-        idle_hand_ = (idle_hand_ + 1) % slots;
-        if (!blocks_.inUse(block))
-            continue;
-        if (grains_[0].used[idx(block)] + idle < use_epoch_ && !pinned(block)) {
-            evict(block);
+    // room, and so does a finer grain no split needs any more
+    pool_.sweepIdle(
+        blocks_, space_, use_epoch_, static_cast<std::uint64_t>(options_.detail_block_idle_frames),
+        releases_);
+    for (const BlockPool::Release& r : releases_) {
+        if (r.grain == 0) {
+            evict(r.block);
             continue;
         }
-        for (int g = kGrains - 1; g > 0; --g) {
-            const std::int32_t chunk = block_chunks_[idx(block)][static_cast<std::size_t>(g)];
-            if (chunk >= 0 &&
-                grains_[static_cast<std::size_t>(g)].used[idx(chunk)] + idle < use_epoch_ &&
-                !grainPinned(g, chunk)) {
-                releaseGrain(block, g);
-                if (const std::int32_t tile = tileOfCell(blocks_.cellOf(block)); tile >= 0)
-                    ++vertex_version_[idx(tile)];
-            }
-        }
+        releaseGrain(r.block, r.grain);
+        if (const std::int32_t tile = tileOfCell(blocks_.cellOf(r.block)); tile >= 0)
+            vertices_.bumpVersion(tile);
     }
 }
 
-void Tessellator::moveChunk(int g, std::int32_t from, std::int32_t to) {
-    Grain& grain = grains_[static_cast<std::size_t>(g)];
-    const auto diamonds = static_cast<std::size_t>(kGrainDiamonds[static_cast<std::size_t>(g)]);
-    const auto vertices = static_cast<std::size_t>(kGrainVertices[static_cast<std::size_t>(g)]);
-    const auto copy = [](auto& v, std::size_t n, std::int32_t a, std::int32_t b) {
-        std::copy_n(
-            v.begin() + static_cast<std::ptrdiff_t>(idx(a) * n), n,
-            v.begin() + static_cast<std::ptrdiff_t>(idx(b) * n));
-    };
-    copy(grain.bounds, diamonds, from, to);
-    copy(grain.state, diamonds, from, to);
-    copy(grain.heights, vertices, from, to);
-    copy(grain.base, 1, from, to);
-    copy(grain.used, 1, from, to);
-    copy(grain.segment, 1, from, to);
-    const std::int32_t block = grain.block[idx(from)];
-    grain.block[idx(to)] = block;
-    grain.block[idx(from)] = -1;
-    block_chunks_[idx(block)][static_cast<std::size_t>(g)] = to;
-    // the tile's vertex array keeps the segment: the same vertices, read from the new chunk
-    if (const std::int32_t segment = grain.segment[idx(to)]; segment >= 0)
-        tile_segments_[idx(tileOfCell(blocks_.cellOf(block)))][idx(segment)].chunk = to;
-    grain.segment[idx(from)] = -1;
-    for (std::size_t slot = 0; slot < diamonds; ++slot) {
-        const auto s = static_cast<std::uint32_t>(slot);
-        if (grain.state[idx(to) * diamonds + slot] != 0 && heap_.contains(grainId(g, from, s)))
-            heap_.rename(grainId(g, from, s), grainId(g, to, s));
-        grain.state[idx(from) * diamonds + slot] = 0;
-    }
-}
+struct Tessellator::PoolMover final : BlockPool::Mover {
+    explicit PoolMover(Tessellator& t) : t_(t) {}
 
-void Tessellator::trimGrains() {
-    // Incremental: each frame moves up to kTrimMoves of the highest chunks into the lowest free
-    // ones, keeping their segments (the vertices drawn do not change) and renaming their ids in
-    // the heap and the lists kept across frames, then cuts the free end off.
-    for (std::size_t g = 1; g < kGrains; ++g) {
-        Grain& grain = grains_[g];
-        const std::size_t size = grain.block.size();
-        if (!trimming_[g]) {
-            if (size < kTrimMinChunks || grain.free.size() * 4 < size)
-                continue;
-            trimming_[g] = true;
+    void chunkMoved(int g, std::int32_t from, std::int32_t to) override {
+        t_.space_.moveChunk(g, from, to);
+        // the tile's vertex array keeps the segment: the same vertices, read from the new chunk
+        if (const std::int32_t segment = t_.pool_.segment(g, to); segment >= 0) {
+            const std::int32_t tile = t_.tileOfCell(t_.blocks_.cellOf(t_.pool_.blockOf(g, to)));
+            t_.vertices_.rechunk(tile, segment, to);
         }
-        std::size_t end = size;
-        moved_.clear();
-        for (std::size_t moves = 0;; ++moves) {
-            while (end > 0 && grain.block[end - 1] < 0)
-                --end;
-            // the lowest free chunk below the end (those above it are cut off)
-            while (!grain.free.empty() && idx(grain.free.front()) >= end) {
-                std::pop_heap(grain.free.begin(), grain.free.end(), std::greater<>());
-                grain.free.pop_back();
-            }
-            if (grain.free.empty()) {
-                trimming_[g] = false; // dense
-                break;
-            }
-            if (moves == kTrimMoves)
-                break;
-            std::pop_heap(grain.free.begin(), grain.free.end(), std::greater<>());
-            const std::int32_t to = grain.free.back();
-            grain.free.pop_back();
-            const auto from = static_cast<std::int32_t>(end - 1);
-            moveChunk(static_cast<int>(g), from, to);
-            moved_.push_back({from, to});
-            ++chunks_moved_;
-        }
-        if (end == size)
-            continue;
-        std::erase_if(grain.free, [&](std::int32_t c) { return idx(c) >= end; });
-        std::make_heap(grain.free.begin(), grain.free.end(), std::greater<>());
+        const auto diamonds = static_cast<std::uint32_t>(kGrainDiamonds[idx(g)]);
+        for (std::uint32_t slot = 0; slot < diamonds; ++slot)
+            if (t_.state(grainId(g, to, slot)) != 0 && t_.heap_.contains(grainId(g, from, slot)))
+                t_.heap_.rename(grainId(g, from, slot), grainId(g, to, slot));
+    }
+
+    void chunksCut(
+        int g,
+        std::size_t end,
+        std::span<const std::pair<std::int32_t, std::int32_t>> moved) override {
         // ids of the chunks cut off, in the lists kept across frames: renamed if the chunk
         // moved; dropped if it was free (a released grain's watched ids lost their state)
-        const auto diamonds = static_cast<std::size_t>(kGrainDiamonds[g]);
         const auto rename = [&](std::vector<DiamondId>& ids) {
             std::erase_if(ids, [&](DiamondId& id) {
-                if (id < kPooled || grainOfId(id) != static_cast<int>(g))
+                if (id < kPooled || grainOfId(id) != g)
                     return false;
-                const std::size_t slot = pooledSlot(id, static_cast<int>(g));
-                const std::size_t chunk = slot / diamonds;
-                if (chunk < end)
+                const auto chunk = DiamondSpace::chunkOfId(id, g);
+                if (idx(chunk) < end)
                     return false;
-                for (const auto& [from, to] : moved_)
-                    if (idx(from) == chunk) {
-                        id = grainId(
-                            static_cast<int>(g), to, static_cast<std::uint32_t>(slot % diamonds));
+                for (const auto& [from, to] : moved)
+                    if (from == chunk) {
+                        id = grainId(g, to, DiamondSpace::slotOfId(id, g));
                         return false;
                     }
                 return true;
             });
         };
-        rename(watched_);
-        rename(rekey_);
-        const auto fit = [](auto& v, std::size_t n) {
-            v.resize(n);
-            if (v.capacity() > n + n / 4)
-                v.shrink_to_fit();
-        };
-        fit(grain.block, end);
-        fit(grain.used, end);
-        fit(grain.segment, end);
-        fit(grain.base, end);
-        fit(grain.bounds, end * diamonds);
-        fit(grain.state, end * diamonds);
-        fit(grain.heights, end * static_cast<std::size_t>(kGrainVertices[g]));
-        resizeDiamondState();
+        rename(t_.watched_);
+        rename(t_.rekey_);
+        t_.space_.fitChunks(g, end);
+        t_.resizeDiamondState();
     }
+
+  private:
+    Tessellator& t_;
+};
+
+void Tessellator::trimGrains() {
+    PoolMover mover(*this);
+    pool_.trim(mover);
 }
 
 std::int32_t Tessellator::materialise(std::int32_t record) {
@@ -259,16 +149,10 @@ std::int32_t Tessellator::materialise(std::int32_t record) {
         return -1;
     }
     const std::int32_t block = blocks_.materialise(record);
-    if (idx(block) >= grains_[0].block.size()) // a new slot, not a free one
+    if (idx(block) >= pool_.chunkCount(0)) // a new slot, not a free one
         resizeDiamondState();
-    block_chunks_[idx(block)] = {block, -1, -1};
-    Grain& coarse = grains_[0];
-    coarse.block[idx(block)] = block;
-    const auto size = static_cast<std::size_t>(kGrainDiamonds[0]);
-    std::fill_n(
-        coarse.state.begin() + static_cast<std::ptrdiff_t>(idx(block) * size), size,
-        std::uint8_t{0});
-    coarse.used[idx(block)] = use_epoch_;
+    pool_.adoptBlock(block, use_epoch_);
+    space_.clearChunk(0, block);
     attachGrain(block, 0);
     if (!defer_bounds_)
         boundGrains(block, 1u);
@@ -277,27 +161,10 @@ std::int32_t Tessellator::materialise(std::int32_t record) {
 }
 
 void Tessellator::materialiseGrain(std::int32_t block, int g) {
-    Grain& grain = grains_[static_cast<std::size_t>(g)];
-    std::int32_t chunk = 0;
-    if (!grain.free.empty()) {
-        std::pop_heap(grain.free.begin(), grain.free.end(), std::greater<>());
-        chunk = grain.free.back();
-        grain.free.pop_back();
-    } else {
-        chunk = static_cast<std::int32_t>(grain.block.size());
-        grain.block.push_back(-1);
-        grain.used.push_back(0);
-        grain.segment.push_back(-1);
+    const std::int32_t chunk = pool_.takeChunk(block, g, use_epoch_);
+    if (pool_.chunkCount(g) > space_.chunkCount(g)) // a new chunk, not a free one
         resizeDiamondState();
-    }
-    grain.block[idx(chunk)] = block;
-    block_chunks_[idx(block)][static_cast<std::size_t>(g)] = chunk;
-    const auto size = static_cast<std::size_t>(kGrainDiamonds[static_cast<std::size_t>(g)]);
-    std::fill_n(
-        grain.state.begin() + static_cast<std::ptrdiff_t>(idx(chunk) * size), size,
-        std::uint8_t{0});
-    grain.used[idx(chunk)] = use_epoch_;
-    grains_[0].used[idx(block)] = use_epoch_;
+    space_.clearChunk(g, chunk);
     attachGrain(block, g);
     if (!defer_bounds_)
         boundGrains(block, 1u << g);
@@ -319,7 +186,7 @@ void Tessellator::boundGrains(std::int32_t block, unsigned grain_mask) {
     }
     storeGrains(0, block, grain_mask, false);
     if (const std::int32_t tile = tileOfCell(cell); tile >= 0)
-        ++vertex_version_[idx(tile)];
+        vertices_.bumpVersion(tile);
 }
 
 void Tessellator::prefetchBlocks(const ViewMetric& m, double threshold) {
@@ -371,7 +238,7 @@ void Tessellator::prefetchGrains(std::size_t i, std::int32_t block) {
     const DetailBlocks::CellXY c = blocks_.cellOf(block);
     const GrainTables& tables = grainTables();
     for (int g = 1; g < kGrains; ++g) {
-        if (block_chunks_[idx(block)][static_cast<std::size_t>(g)] >= 0)
+        if (pool_.chunkOf(block, g) >= 0)
             continue;
         // the build makes grain g when one of grain g - 1's deepest diamonds splits
         const auto coarser = static_cast<std::size_t>(g - 1);
@@ -385,8 +252,10 @@ void Tessellator::prefetchGrains(std::size_t i, std::int32_t block) {
             const Diamond d = diamondAt(p);
             if (d.level != kGrainDeepestLevel[coarser] || !insideMap(p))
                 continue;
-            needed = priority(*prefetch_view_, d, codec_.outward(block_bounds_.bounds(i, local))) >
-                     prefetch_threshold_;
+            needed =
+                priority(
+                    *prefetch_view_, d, space_.codec().outward(block_bounds_.bounds(i, local))) >
+                prefetch_threshold_;
         }
         if (!needed)
             return; // nor the finer ones: they hang from this one's splits
@@ -410,7 +279,7 @@ void Tessellator::materialiseAll() {
         if (block < 0)
             block = materialise(r);
         for (int g = 1; g < kGrains; ++g)
-            if (block_chunks_[idx(block)][static_cast<std::size_t>(g)] < 0)
+            if (pool_.chunkOf(block, g) < 0)
                 materialiseGrain(block, g);
         pass_.push_back(block);
     }

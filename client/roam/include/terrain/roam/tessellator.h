@@ -48,13 +48,17 @@
 
 #include <terrain/roam/block_bounds.h>
 #include <terrain/roam/block_grains.h>
+#include <terrain/roam/block_pool.h>
 #include <terrain/roam/camera.h>
 #include <terrain/roam/candidate_heap.h>
 #include <terrain/roam/detail_blocks.h>
 #include <terrain/roam/diamond_id.h>
+#include <terrain/roam/diamond_space.h>
 #include <terrain/roam/lattice.h>
 #include <terrain/roam/packed_bounds.h>
+#include <terrain/roam/stale_blocks.h>
 #include <terrain/roam/tile_mesh.h>
+#include <terrain/roam/tile_vertex_arrays.h>
 #include <terrain/terrain.h>
 
 #include <cstdint>
@@ -146,12 +150,6 @@ struct FrameStats {
     bool budget_exhausted = false;
 };
 
-/// A tile's vertex array: the (kTileCells + 1)^2 base grid first, row by row, then one segment
-/// per resident grain of a detail block (kGrainVertices[g] vertices), in the order they came; a
-/// grain that goes leaves a hole (unreferenced vertices, standing in for the tile's first vertex)
-/// for the next of its size.
-inline constexpr std::int32_t kTileBaseVertices = (kTileCells + 1) * (kTileCells + 1);
-
 /// A tile vertex: lattice position (1/16 cell) and height in fine units (1/16 quantum).
 struct TileVertex {
     LatticePoint position;
@@ -159,12 +157,6 @@ struct TileVertex {
     /// Lattice origin of the cell whose block holds it; (-1, -1) on the base grid. A vertex on a
     /// cell border is in both cells' blocks, with the same height.
     LatticePoint block_origin{-1, -1};
-};
-
-/// A run [begin, end) of a tile's vertex array.
-struct VertexRange {
-    std::uint32_t begin = 0;
-    std::uint32_t end = 0;
 };
 
 class Tessellator {
@@ -175,10 +167,16 @@ class Tessellator {
     FrameStats update(const Camera& camera);
 
     /// The terrain changed under `cells` (one rectangle per op, from the replica's DirtySet), or
-    /// everything when `all` (a snapshot, possibly of another world: the terrain object must be
-    /// the same one). Rebuilds blocks and bounds along the changed paths only; affected
-    /// candidates are re-examined on the next update().
+    /// everything when `all` (a snapshot, possibly of another world). Rebuilds blocks and bounds
+    /// along the changed paths only; affected candidates are re-examined on the next update().
     void terrainChanged(std::span<const CellRect> cells, bool all);
+    /// Reads `terrain` from now on (another object: a replica's copy, a world swapped whole),
+    /// as terrainChanged({}, true) does: everything is re-read, the next update() rebuilds.
+    /// `terrain` must outlive the tessellator or the next rebind.
+    void rebind(const Terrain& terrain) {
+        terrain_ = &terrain;
+        terrainChanged({}, true);
+    }
 
     void setTau(double tau_pixels);
     /// A new triangle cap, followed over the next frames (the threshold moves; no rebuild).
@@ -196,8 +194,8 @@ class Tessellator {
     TileMesh& tileMesh(std::int32_t tile) { return tiles_[idx(tile)]; }
     bool tileVisible(std::int32_t tile) const { return tile_visible_[idx(tile)] != 0; }
     /// Bumped whenever the tile's vertex array (heights or blocks) changes.
-    std::uint32_t tileVertexVersion(std::int32_t tile) const { return vertex_version_[idx(tile)]; }
-    std::int32_t tileVertexCount(std::int32_t tile) const;
+    std::uint32_t tileVertexVersion(std::int32_t tile) const { return vertices_.version(tile); }
+    std::int32_t tileVertexCount(std::int32_t tile) const { return vertices_.vertexCount(tile); }
     TileVertex tileVertex(std::int32_t tile, std::uint32_t index) const;
     /// Every vertex of the tile's array at once (out.size() == tileVertexCount(tile)): what the
     /// renderer reads when it loads a tile.
@@ -210,12 +208,12 @@ class Tessellator {
     /// the array (or takes a hole), when its height moves, and when the surface within a cell
     /// of it changes (its normal: an op's cells widened by one). A grain that goes marks
     /// nothing: no index refers to its vertices any more.
-    bool tileVerticesAllChanged(std::int32_t tile) const { return vertices_all_[idx(tile)] != 0; }
+    bool tileVerticesAllChanged(std::int32_t tile) const { return vertices_.allChanged(tile); }
     std::span<const VertexRange> tileVertexChanges(std::int32_t tile) const {
-        return vertex_changes_[idx(tile)];
+        return vertices_.changes(tile);
     }
-    void takeVertexChanges(std::int32_t tile);
-    static constexpr std::size_t kMaxVertexRanges = 4096;
+    void takeVertexChanges(std::int32_t tile) { vertices_.take(tile); }
+    static constexpr std::size_t kMaxVertexRanges = TileVertexArrays::kMaxRanges;
 
     /// Geomorphing: the height (metres) each vertex of the tile's mesh is drawn at for `view`,
     /// so that splits and merges slide instead of pop; vertices the mesh does not use are left
@@ -259,7 +257,7 @@ class Tessellator {
     std::size_t memoryBytes() const { return memory().total(); }
     TessellatorMemory memory() const;
     /// Grain chunks moved down to compact their arrays since construction (trimGrains).
-    std::int64_t movedChunkCount() const { return chunks_moved_; }
+    std::int64_t movedChunkCount() const { return pool_.movedCount(); }
     /// Diamonds split since construction that needed a block no cell had (must stay 0).
     std::int64_t missingBlockRefusals() const { return missing_block_refusals_; }
 
@@ -273,37 +271,14 @@ class Tessellator {
     /// Ids (diamond_id.h): grid vertices, then one centre per detail record (eager, below
     /// kPooled); pooled range g holds grain g's chunks, kGrainDiamonds[g] ids a chunk.
     static constexpr DiamondId kPooled = kPooledIds;
-    static_assert(kPooledRanges == kGrains);
-    static constexpr std::uint8_t kActive = 1;
-    static constexpr std::uint8_t kSplitCandidate = 2;
-    static constexpr std::uint8_t kMergeCandidate = 4;
-    static constexpr std::uint8_t kWatched = 8;
+    static constexpr std::uint8_t kActive = DiamondSpace::kActive;
+    static constexpr std::uint8_t kSplitCandidate = DiamondSpace::kSplitCandidate;
+    static constexpr std::uint8_t kMergeCandidate = DiamondSpace::kMergeCandidate;
+    static constexpr std::uint8_t kWatched = DiamondSpace::kWatched;
     static std::size_t idx(std::int64_t v) { return static_cast<std::size_t>(v); }
 
     using Bounds = DiamondBounds;
-    /// The resident chunks of one grain of the blocks, and their diamonds and vertices.
-    struct Grain {
-        std::vector<PackedBounds> bounds; ///< per diamond slot of every chunk
-        std::vector<std::uint8_t> state;  ///< per diamond slot
-        /// Per vertex slot of every chunk: the height (fine units) less its chunk's base. The
-        /// heights of one cell differ by far less than 2^32 fine units (262 km).
-        std::vector<std::uint32_t> heights;
-        std::vector<std::int64_t> base;    ///< per chunk: its lowest height (fine units)
-        std::vector<std::int32_t> block;   ///< per chunk: its block, or -1 (free)
-        std::vector<std::uint64_t> used;   ///< per chunk: the epoch it was last used in
-        std::vector<std::int32_t> segment; ///< per chunk: its segment in its tile, or -1
-        /// Free chunks (grains 1 and 2; grain 0's are blocks), a min-heap: the lowest is reused
-        /// first, so that the free ones gather at the end, where trimGrains() cuts them off.
-        std::vector<std::int32_t> free;
-    };
-    /// A run of a tile's vertex array that holds one grain of one block, or a hole.
-    struct VertexSegment {
-        std::int32_t offset = 0; ///< past the base grid
-        std::int32_t chunk = -1; ///< -1: a hole
-        std::int32_t grain = 0;
-    };
     void adoptSpec();
-    void markVertices(std::int32_t tile, std::uint32_t begin, std::uint32_t end);
     /// The vertices whose height or normal an op over `cells` may have changed: the base grid
     /// and the blocks within a cell of them.
     void markChangedSurface(CellRect cells);
@@ -317,43 +292,25 @@ class Tessellator {
     DiamondId resolve(LatticePoint p);
     LatticePoint pointOf(DiamondId id) const;
     std::int64_t heightAt(LatticePoint p) const;
-    static int grainOfId(DiamondId id) { return rangeOf(id); }
-    std::int32_t chunkOfId(DiamondId id, int g) const {
-        return static_cast<std::int32_t>(
-            pooledSlot(id, g) /
-            static_cast<std::size_t>(kGrainDiamonds[static_cast<std::size_t>(g)]));
-    }
+    static int grainOfId(DiamondId id) { return DiamondSpace::grainOfId(id); }
     /// The block a pooled id belongs to.
     std::int32_t blockOfId(DiamondId id) const {
         const int g = grainOfId(id);
-        return grains_[static_cast<std::size_t>(g)].block[idx(chunkOfId(id, g))];
+        return pool_.blockOf(g, DiamondSpace::chunkOfId(id, g));
     }
-    DiamondId grainId(int g, std::int32_t chunk, std::uint32_t slot) const {
-        return pooledIdAt(
-            g, static_cast<std::size_t>(chunk) *
-                       static_cast<std::size_t>(kGrainDiamonds[static_cast<std::size_t>(g)]) +
-                   slot);
+    static DiamondId grainId(int g, std::int32_t chunk, std::uint32_t slot) {
+        return DiamondSpace::pooledId(g, chunk, slot);
     }
-    std::uint8_t& state(DiamondId id) {
-        if (id < grid_count_)
-            return state_[id];
-        if (id < kPooled)
-            return centre_state_[id - grid_count_];
-        const int g = grainOfId(id);
-        return grains_[static_cast<std::size_t>(g)].state[pooledSlot(id, g)];
-    }
-    std::uint8_t state(DiamondId id) const { return const_cast<Tessellator*>(this)->state(id); }
+    std::uint8_t& state(DiamondId id) { return space_.state(id); }
+    std::uint8_t state(DiamondId id) const { return space_.state(id); }
     /// A diamond's bounds: stored for the grid's and the blocks' diamonds; a centre's come from
     /// the records of its 3 x 3 cells (cached while a whole-map pass runs).
     Bounds bounds(DiamondId id) const {
-        if (id < grid_count_)
-            return codec_.unpack(bounds_[id]);
-        if (id < kPooled) {
-            const auto record = static_cast<std::int32_t>(id - grid_count_);
+        if (space_.isCentre(id)) {
+            const std::int32_t record = space_.recordOfCentre(id);
             return centre_cache_.empty() ? centreBounds(record) : centre_cache_[idx(record)];
         }
-        const int g = grainOfId(id);
-        return codec_.unpack(grains_[static_cast<std::size_t>(g)].bounds[pooledSlot(id, g)]);
+        return space_.storedBounds(id);
     }
     /// Packed and unpacked like every stored bound (BoundsCodec::outward), so that the
     /// centre's children, stored packed, stay within it.
@@ -361,20 +318,16 @@ class Tessellator {
     /// Marks the pooled id's chunk and block used in this epoch (never evicted in it).
     void markUsed(DiamondId id) {
         const int g = grainOfId(id);
-        const std::int32_t chunk = chunkOfId(id, g);
-        grains_[static_cast<std::size_t>(g)].used[idx(chunk)] = use_epoch_;
-        grains_[0].used[idx(grains_[static_cast<std::size_t>(g)].block[idx(chunk)])] = use_epoch_;
+        pool_.markUsed(g, DiamondSpace::chunkOfId(id, g), use_epoch_);
     }
-    bool active(DiamondId id) const { return id != kNoDiamond && (state(id) & kActive) != 0; }
-    bool isCentre(DiamondId id) const { return id >= grid_count_ && id < kPooled; }
-    DiamondId centreId(std::int32_t record) const {
-        return grid_count_ + static_cast<DiamondId>(record);
-    }
+    bool active(DiamondId id) const { return space_.active(id); }
+    bool isCentre(DiamondId id) const { return space_.isCentre(id); }
+    DiamondId centreId(std::int32_t record) const { return space_.centreId(record); }
     /// The id of diamond `local` (l * 16 + k) of `block`, or kNoDiamond if its grain is not
     /// resident.
     DiamondId pooledId(std::int32_t block, std::uint32_t local) const;
+    /// Sizes the diamond space and the heap's ids after the records or the pool's chunks grew.
     void resizeDiamondState();
-    void clearAllState();
 
     // the block pool (tessellator_pool.cpp)
     /// Gives `record` a resident block with its coarse grain (evicting one if the pool is full);
@@ -390,9 +343,6 @@ class Tessellator {
     void prefetchBlocks(const ViewMetric& m, double threshold);
     /// During a prefetch pass: the finer grains of the pass's i-th block that the build will need.
     void prefetchGrains(std::size_t i, std::int32_t block);
-    bool pinned(std::int32_t block) const;
-    /// Some diamond of the chunk is split or a candidate.
-    bool grainPinned(int g, std::int32_t chunk) const;
     bool evictOne();
     /// Releases blocks (or their finer grains) idle for options_.detail_block_idle_frames, a
     /// few slots per frame.
@@ -400,8 +350,8 @@ class Tessellator {
     /// Gives back the memory of free grain 1 and 2 chunks once they are a quarter of their
     /// arrays, compacting over a few frames: a battle's peak is not kept for the session.
     void trimGrains();
-    /// Moves a live chunk of grain g (1 or 2) into a free one, renaming its ids in the heap.
-    void moveChunk(int g, std::int32_t from, std::int32_t to);
+    /// What follows the pool's moves: the diamonds' state, the heap, the lists, the segments.
+    struct PoolMover;
     void evict(std::int32_t block);
     void releaseGrain(std::int32_t block, int g);
     /// The triangle cap or the pool refused a split this frame.
@@ -433,13 +383,8 @@ class Tessellator {
     void storeGrains(std::size_t i, std::int32_t block, unsigned grain_mask, bool collect);
     /// Stores heights_scratch_ (a cell's 17 x 17) into `block`'s resident grains in the mask.
     void storeHeights(std::int32_t block, unsigned grain_mask);
-    /// After an op changed `cells`: the blocks whose bounds depend on them queued in stale_,
-    /// those whose heights changed marked so.
-    void markStale(CellRect cells);
     /// The heights of the blocks still stale (end of update(): before anything draws them).
     void freshenHeights();
-    static constexpr std::uint8_t kStaleBounds = 1;
-    static constexpr std::uint8_t kStaleHeights = 2;
     /// Recomputes the bounds of up to `budget` stale blocks (re-queueing candidates whose bounds
     /// moved); returns how many.
     std::int64_t drainStale(std::int64_t budget);
@@ -485,7 +430,6 @@ class Tessellator {
     Diamond tileRoot(std::int32_t tile) const;
     void emitTile(std::int32_t tile);
     void emitTriangle(const Triangle& t, std::int32_t tile, TileMesh& mesh);
-    void clearTileVertices(std::int32_t tile);
     std::int32_t tileOfCell(DetailBlocks::CellXY c) const; ///< -1 for virtual cells
     /// Gives grain `g` of `block` a segment of its tile's vertex array (none for virtual cells).
     void attachGrain(std::int32_t block, int g);
@@ -537,25 +481,19 @@ class Tessellator {
     DetailBlocks blocks_;
 
     // per diamond: eager ids, and pooled ones (by grain)
-    BoundsCodec codec_;
-    std::vector<PackedBounds> bounds_; ///< the grid's (sized once per world)
-    std::vector<std::uint8_t> state_;
-    std::vector<std::uint8_t> centre_state_; ///< per record (records come and go with ops)
-    std::vector<Bounds> centre_cache_;       ///< every centre's bounds, during a whole-map pass
+    DiamondSpace space_;
+    std::vector<Bounds> centre_cache_; ///< every centre's bounds, during a whole-map pass
     /// The centres' bounds over centre_rect_ before an op's change (delta -1: no record).
     std::vector<Bounds> centre_before_;
     CellRect centre_rect_{};
-    std::array<Grain, kGrains> grains_;
-    /// Per block slot: its chunk of each grain, or -1 (grain 0's is the block itself).
-    std::vector<std::array<std::int32_t, kGrains>> block_chunks_;
 
     // the block pool
+    BlockPool pool_;
+    std::vector<BlockPool::Release> releases_; ///< the idle sweep's
     BlockBounds block_bounds_;
     std::vector<std::int32_t> pass_;
-    std::array<bool, kGrains> trimming_{}; ///< per grain: compacting (trimGrains)
-    std::vector<std::pair<std::int32_t, std::int32_t>> moved_; ///< chunks moved, from -> to
-    std::vector<std::int32_t> stale_;       ///< blocks whose bounds wait, oldest first
-    std::vector<std::uint8_t> block_stale_; ///< per block slot: kStale* flags (in stale_)
+    StaleBlocks stale_;                     ///< blocks an op left stale, oldest first
+    std::vector<std::int32_t> heights_due_; ///< freshenHeights'
     std::vector<DetailBlocks::CellXY> pass_cells_;
     std::vector<std::int32_t> pass_blocks_;
     std::array<std::int64_t, kBlockVertices> heights_scratch_{};
@@ -567,8 +505,6 @@ class Tessellator {
     DetailBlocks::CellXY bounded_cell_{};
     std::uint64_t bounded_generation_ = 0;
     std::uint64_t terrain_generation_ = 0; ///< bumped by every terrainChanged()
-    std::size_t clock_hand_ = 0;
-    std::size_t idle_hand_ = 0;
     std::uint64_t frame_ = 0;
     /// Blocks used in the current epoch are never evicted (ids of them may be held on the
     /// stack); a frame starts one, and so does a best-first pass (nothing is held then).
@@ -579,7 +515,6 @@ class Tessellator {
     std::int64_t materialised_ = 0;
     std::int64_t grains_materialised_ = 0; ///< finer grains (1 and 2) made
     std::int64_t evicted_ = 0;
-    std::int64_t chunks_moved_ = 0;
     /// materialised_ + grains_materialised_ when the frame began (its work budget counts them)
     std::int64_t made_at_frame_start_ = 0;
     std::int64_t upload_pages_ = 0;          ///< index pages first written by split/merge, all told
@@ -590,15 +525,7 @@ class Tessellator {
     std::vector<TileMesh> tiles_;
     std::vector<std::uint8_t> tile_visible_;
     std::vector<std::uint64_t> tile_snug_; ///< per tile: the frame its mesh last had no slack
-    std::vector<std::uint32_t> vertex_version_;
-    std::vector<std::vector<VertexRange>> vertex_changes_; ///< per tile, since taken
-    std::vector<std::uint8_t> vertices_all_;               ///< per tile: everything changed
-    /// Segments of each tile's vertex array past the base grid, by offset; a segment keeps its
-    /// place while its grain lives, so index lists never move.
-    std::vector<std::vector<VertexSegment>> tile_segments_;
-    /// Per tile and grain: segments that are holes, free for a grain of that size.
-    std::vector<std::array<std::vector<std::int32_t>, kGrains>> tile_holes_;
-    std::vector<std::int32_t> tile_vertices_; ///< per tile: vertices past the base grid
+    TileVertexArrays vertices_;
 
     // split/merge state
     CandidateHeap heap_;             ///< candidates by the eye travel at which to re-examine them
