@@ -1,13 +1,11 @@
 #include <terrain/bot/bot.h>
 #include <terrain/client/connection.h>
-#include <terrain/client/frame_budget.h>
 #include <terrain/client/replica.h>
-#include <terrain/client/tessellation_feed.h>
+#include <terrain/client/terrain_view.h>
 #include <terrain/render/gpu_timer.h>
 #include <terrain/render/sky_holes.h>
 #include <terrain/render/terrain_renderer.h>
 #include <terrain/roam/tessellator.h>
-#include <terrain/surface_query.h>
 
 #include <algorithm>
 #include <array>
@@ -106,22 +104,20 @@ Result<BotReport> runBot(const BotConfig& config) {
                                 (why.empty() ? "" : ": " + why));
     }
     report.join_seconds = secondsSince(join_start);
-    replica.takeDirty(); // the tessellator starts from this state
 
     ScriptOptions script_options = config.script;
     BotScript script(script_options, replica.terrain().spec());
-    roam::TessellatorOptions to;
-    to.tau_pixels = config.tau_pixels;
-    to.max_triangles = config.max_triangles;
+    client::TerrainViewOptions vo; // the tessellator starts from the state just joined
+    vo.tessellation.tau_pixels = config.tau_pixels;
+    vo.tessellation.max_triangles = config.max_triangles;
     if (config.upload_budget_bytes >= 0)
-        to.upload_budget_bytes = config.upload_budget_bytes;
-    roam::Tessellator tess(replica.terrain(), to);
-    client::FrameBudgetOptions bo;
-    bo.target_ms = config.frame_ms >= 0.0 ? config.frame_ms
-                   : config.render        ? kDefaultRenderFrameMs
-                                          : 0.0;
-    bo.max_triangles = config.max_triangles;
-    client::FrameBudget budget(bo);
+        vo.tessellation.upload_budget_bytes = config.upload_budget_bytes;
+    vo.budget.target_ms = config.frame_ms >= 0.0 ? config.frame_ms
+                          : config.render        ? kDefaultRenderFrameMs
+                                                 : 0.0;
+    vo.budget.max_triangles = config.max_triangles;
+    client::TerrainView view(replica, vo);
+    roam::Tessellator& tess = view.tessellator(); // the renderer takes its changes
 
     Renderer gpu;
     if (config.render) {
@@ -172,12 +168,8 @@ Result<BotReport> runBot(const BotConfig& config) {
     std::vector<double> copies;
     std::vector<double> caps;
     std::vector<double> error_bounds;
-    // what the replica changed goes to the tessellator and, for normals, to the renderer
-    const auto absorb = [&] {
-        const client::SurfaceChanges changes =
-            client::surfaceChanges(replica.takeDirty(), replica.terrain().spec());
-        client::feedChanges(changes, tess);
-    };
+    // what the replica changed goes to the tessellator (the renderer reads it from there)
+    const auto absorb = [&] { view.absorb(); };
     const auto frame = [&](const roam::Camera& camera) {
         const Clock::time_point t0 = Clock::now();
         io.poll();
@@ -186,7 +178,7 @@ Result<BotReport> runBot(const BotConfig& config) {
         absorb();
         const Clock::time_point t1 = Clock::now();
         caps.push_back(static_cast<double>(tess.options().max_triangles));
-        const roam::FrameStats fs = tess.update(camera);
+        const roam::FrameStats& fs = view.update(camera);
         tessellate_ms.push_back(msSince(t1));
         error_bounds.push_back(fs.error_bound_pixels);
         triangles.push_back(static_cast<double>(fs.triangles));
@@ -216,7 +208,7 @@ Result<BotReport> runBot(const BotConfig& config) {
         // the GPU works behind the CPU: where its time is known, the budget steers on the
         // larger of the two
         const double gpu_frame = gpu.timer && gpu.timer->latestMs() ? *gpu.timer->latestMs() : 0.0;
-        tess.setMaxTriangles(budget.observe(std::max(frame_ms.back(), gpu_frame), fs.triangles));
+        view.steer(std::max(frame_ms.back(), gpu_frame));
     };
 
     const Clock::time_point run_start = Clock::now();
@@ -237,20 +229,14 @@ Result<BotReport> runBot(const BotConfig& config) {
         if (script.craterDue(f)) {
             // a click: the ray through the shot's pixel, against the replica's true surface
             const CraterShot shot = script.shot(f);
-            const glm::dvec3 ray = roam::ViewMetric(camera).rayThrough(shot.pixel_x, shot.pixel_y);
-            const std::optional<RayHit> hit = castRay(replica.terrain(), camera.eye, ray, 1.0e5);
-            if (!hit) {
+            const std::optional<OpRequest> request = client::craterAtPixel(
+                replica.terrain(), camera, shot.pixel_x, shot.pixel_y,
+                {.radius = shot.radius, .depth = shot.depth, .rim = 0.3});
+            if (!request) {
                 ++report.craters_missed;
                 continue;
             }
-            OpRequest request;
-            request.kind = OpKind::kCrater;
-            request.x = hit->point.x;
-            request.y = hit->point.y;
-            request.radius = shot.radius;
-            request.height = shot.depth;
-            request.strength = 0.3;
-            connection->requestDeform(request);
+            connection->requestDeform(*request);
             ++report.craters_requested;
             ++answers_pending;
         }

@@ -4,9 +4,8 @@
 #include "window_input.h"
 
 #include <terrain/client/connection.h>
-#include <terrain/client/frame_budget.h>
 #include <terrain/client/replica.h>
-#include <terrain/client/tessellation_feed.h>
+#include <terrain/client/terrain_view.h>
 #include <terrain/procedural_map.h>
 #include <terrain/render/glfw_window.h>
 #include <terrain/render/gpu_timer.h>
@@ -162,8 +161,9 @@ class Viewer {
     client::Replica replica_;
     asio::io_context io_;
     std::shared_ptr<client::Connection> connection_;
-    std::unique_ptr<roam::Tessellator> tess_;
-    std::unique_ptr<client::FrameBudget> budget_;
+    std::unique_ptr<client::TerrainView> view_; ///< replica -> tessellator, the triangle budget
+    /// The last frame's tessellation; none before the join (a report of a failed join).
+    roam::FrameStats lastStats() const { return view_ ? view_->lastStats() : roam::FrameStats{}; }
     std::optional<FlyCamera> camera_;
 
     OverlayControls controls_;
@@ -187,7 +187,6 @@ class Viewer {
     std::vector<double> all_tess_ms_;
     std::vector<double> all_draw_ms_;
     std::vector<double> all_frame_ms_;
-    roam::FrameStats last_stats_;
     render::UploadStats last_upload_;
 };
 
@@ -339,14 +338,12 @@ Status Viewer::join() {
         1000.0 * secondsBetween(t0, Clock::now()), static_cast<unsigned long long>(replica_.seq()));
 
     // the tessellator starts from the state just received; later snapshots reset it through
-    // feedChanges (the terrain object stays the same one)
-    replica_.takeDirty();
-    roam::TessellatorOptions to;
-    to.tau_pixels = refineTau(options_.tau_pixels);
-    to.max_triangles = options_.max_triangles;
-    tess_ = std::make_unique<roam::Tessellator>(replica_.terrain(), to);
-    budget_ = std::make_unique<client::FrameBudget>(client::FrameBudgetOptions{
-        .target_ms = options_.frame_ms, .max_triangles = options_.max_triangles});
+    // absorb() (the terrain object stays the same one)
+    client::TerrainViewOptions vo;
+    vo.tessellation.tau_pixels = refineTau(options_.tau_pixels);
+    vo.tessellation.max_triangles = options_.max_triangles;
+    vo.budget = {.target_ms = options_.frame_ms, .max_triangles = options_.max_triangles};
+    view_ = std::make_unique<client::TerrainView>(replica_, vo);
     applied_tau_ = options_.tau_pixels;
     camera_.emplace(startCamera(replica_.terrain()));
     controls_.speed = static_cast<float>(camera_->speed);
@@ -387,9 +384,7 @@ Status Viewer::loop() {
 
         // the network first, so this frame shows every op that has arrived
         pollNetwork();
-        const client::SurfaceChanges changes =
-            client::surfaceChanges(replica_.takeDirty(), replica_.terrain().spec());
-        client::feedChanges(changes, *tess_);
+        view_->absorb();
         const Terrain& terrain = replica_.terrain();
 
         camera_->speed = controls_.speed;
@@ -404,7 +399,7 @@ Status Viewer::loop() {
         if (static_cast<double>(controls_.tau_pixels) != applied_tau_ &&
             controls_.tau_pixels > 0.0f) {
             applied_tau_ = static_cast<double>(controls_.tau_pixels);
-            tess_->setTau(refineTau(applied_tau_));
+            view_->tessellator().setTau(refineTau(applied_tau_));
         }
 
         const int fb_w = window_->width();
@@ -418,14 +413,15 @@ Status Viewer::loop() {
         }
         const roam::Camera camera = camera_->camera(fb_w, fb_h);
         const Clock::time_point t0 = Clock::now();
-        last_stats_ = tess_->update(camera);
+        view_->update(camera);
         const Clock::time_point t1 = Clock::now();
         gpu_timer_->begin();
-        last_upload_ = renderer_->sync(*tess_, terrain);
-        const render::UploadStats morphed = renderer_->morph(*tess_, camera);
+        roam::Tessellator& tess = view_->tessellator();
+        last_upload_ = renderer_->sync(tess, terrain);
+        const render::UploadStats morphed = renderer_->morph(tess, camera);
         last_upload_.vertex_bytes += morphed.vertex_bytes;
         render_options.mode = drawModeOf(controls_.draw_mode);
-        renderer_->draw(*tess_, camera, render_options);
+        renderer_->draw(tess, camera, render_options);
         gpu_timer_->end();
         // the CPU's part only: the GPU's comes back from its timer a few frames later, and
         // waiting for it here (glFinish) would stall every frame
@@ -443,8 +439,7 @@ Status Viewer::loop() {
         }
         // the budget steers on the slower of the two where the GPU's time is known
         const double gpu_frame = gpu_timer_->latestMs().value_or(0.0);
-        tess_->setMaxTriangles(
-            budget_->observe(std::max(tess_ms + draw_ms, gpu_frame), last_stats_.triangles));
+        view_->steer(std::max(tess_ms + draw_ms, gpu_frame));
         if (keep_all_) {
             all_tess_ms_.push_back(tess_ms);
             all_draw_ms_.push_back(draw_ms);
@@ -485,12 +480,13 @@ Status Viewer::loop() {
 }
 
 void Viewer::requestCraterAt(const roam::Camera& camera, double px, double py) {
-    const WorldSpec& spec = replica_.terrain().spec();
-    const glm::dvec3 ray = roam::ViewMetric(camera).rayThrough(px, py);
-    const double reach =
-        2.0 * std::hypot(spec.extentX(), spec.extentY()) + std::abs(camera.eye.z) + 1000.0;
-    const std::optional<RayHit> hit = castRay(replica_.terrain(), camera.eye, ray, reach);
-    if (!hit) {
+    // the sliders move apart; a crater is at most as deep as it is wide (the server's rule)
+    const std::optional<OpRequest> request = client::craterAtPixel(
+        replica_.terrain(), camera, px, py,
+        {.radius = static_cast<double>(controls_.crater_radius),
+         .depth = static_cast<double>(std::min(controls_.crater_depth, controls_.crater_radius)),
+         .rim = kCraterRim});
+    if (!request) {
         ++report_.craters_missed;
         message_ = "the click missed the terrain";
         return;
@@ -500,15 +496,7 @@ void Viewer::requestCraterAt(const roam::Camera& camera, double px, double py) {
         message_ = "not connected: crater not sent";
         return;
     }
-    OpRequest request;
-    request.kind = OpKind::kCrater;
-    request.x = hit->point.x;
-    request.y = hit->point.y;
-    request.radius = static_cast<double>(controls_.crater_radius);
-    // the sliders move apart; a crater is at most as deep as it is wide (the server's rule)
-    request.height = static_cast<double>(std::min(controls_.crater_depth, controls_.crater_radius));
-    request.strength = kCraterRim;
-    connection_->requestDeform(request);
+    connection_->requestDeform(*request);
     ++report_.craters_requested;
     ++answers_pending_;
 }
@@ -554,8 +542,8 @@ OverlayView Viewer::overlayView() const {
     v.verified_seq = replica_.verifiedSeq();
     v.world_hash = replica_.worldHash();
     v.rtt_ms = connection_ ? 1000.0 * connection_->roundTripSeconds() : 0.0;
-    v.triangles = last_stats_.triangles;
-    v.visible_triangles = last_stats_.visible_triangles;
+    v.triangles = lastStats().triangles;
+    v.visible_triangles = lastStats().visible_triangles;
     v.tessellation_ms = tess_ms_.median();
     v.draw_ms = draw_ms_.median();
     v.gpu_ms = gpu_ms_.median();
@@ -588,8 +576,8 @@ int Viewer::finish() {
     r.repairs = replica_.stats().repairs;
     r.synced = connection_->synced();
     r.diverged = replica_.diverged();
-    r.triangles = last_stats_.triangles;
-    r.visible_triangles = last_stats_.visible_triangles;
+    r.triangles = lastStats().triangles;
+    r.visible_triangles = lastStats().visible_triangles;
     r.median_frame_ms = medianOf(all_frame_ms_);
     r.median_tessellation_ms = medianOf(all_tess_ms_);
     r.median_draw_ms = medianOf(all_draw_ms_);
