@@ -4,7 +4,7 @@
 //   terrain-server health [--connect host:port]                    exit 0 when serving
 // Every option also reads an environment variable (TERRAIN_*), so containers need no flags.
 
-#include <terrain/io/dem_import.h>
+#include <terrain/io/genesis.h>
 #include <terrain/journal/journal.h>
 #include <terrain/procedural_map.h>
 #include <terrain/server/agones_sdk.h>
@@ -65,7 +65,7 @@ struct Options {
     std::string dem;
     std::uint64_t seed = 1;
     int size = 1025;
-    double tolerance = 1.0 / 32.0;
+    std::optional<double> tolerance; ///< unset: the genesis source's default
     std::size_t max_sessions = 1024;
     std::size_t max_pending = server::ServerConfig{}.max_pending_sessions;
     std::size_t max_pending_per_address = server::ServerConfig{}.max_pending_per_address;
@@ -102,20 +102,13 @@ Result<std::vector<std::uint8_t>> loadSecret(const Options& o) {
     return server::parseSecret(text);
 }
 
-Result<Terrain> genesisTerrain(const Options& o) {
-    if (!o.dem.empty()) {
-        io::DemImportOptions import;
-        Result<io::ImportedDem> dem = io::importDem(o.dem, import);
-        if (!dem)
-            return dem.error();
-        return std::move(dem->terrain);
-    }
-    ProceduralMapOptions p;
-    p.seed = o.seed;
-    p.width = o.size;
-    p.height = o.size;
-    p.patch_tolerance_metres = o.tolerance;
-    return makeProceduralMap(p);
+Result<io::Genesis> genesis(const Options& o) {
+    io::GenesisOptions g;
+    g.dem = o.dem;
+    g.seed = o.seed;
+    g.size = o.size;
+    g.patch_tolerance_metres = o.tolerance;
+    return io::makeGenesis(g);
 }
 
 /// printf into a string, for log messages.
@@ -149,13 +142,13 @@ int openWorld(
     const Options& o, ThreadPool& apply_pool, server::LogWriter& log, OpenedWorld& world) {
     const auto t0 = std::chrono::steady_clock::now();
     if (o.no_journal) {
-        Result<Terrain> genesis = genesisTerrain(o);
-        if (!genesis) {
+        Result<io::Genesis> made = genesis(o);
+        if (!made) {
             log.error(
-                "map.failed", "terrain-server", strf("map: %s", genesis.error().message.c_str()));
+                "map.failed", "terrain-server", strf("map: %s", made.error().message.c_str()));
             return 1;
         }
-        world.terrain.emplace(std::move(*genesis));
+        world.terrain.emplace(std::move(made->terrain));
         log.info(
             "journal.none", "journal",
             "none (--no-journal): ops are acknowledged without durability");
@@ -178,18 +171,20 @@ int openWorld(
     }
     journal::Journal& journal = world.journal.emplace(std::move(*opened));
     if (journal.empty()) {
-        Result<Terrain> genesis = genesisTerrain(o);
-        if (!genesis) {
+        Result<io::Genesis> made = genesis(o);
+        if (!made) {
             log.error(
-                "map.failed", "terrain-server", strf("map: %s", genesis.error().message.c_str()));
+                "map.failed", "terrain-server", strf("map: %s", made.error().message.c_str()));
             return 1;
         }
-        if (Status s = journal.initialize(*genesis, 0); !s) {
+        if (Status s = journal.initialize(made->terrain, 0); !s) {
             log.error("journal.init_failed", "terrain-server", s.error().message);
             return 1;
         }
-        world.terrain.emplace(std::move(*genesis));
-        log.info("journal.new_world", "journal", strf("new world in %s", o.data_dir.c_str()));
+        world.terrain.emplace(std::move(made->terrain));
+        log.info(
+            "journal.new_world", "journal",
+            strf("new world in %s: %s", o.data_dir.c_str(), made->source.c_str()));
         return 0;
     }
     Result<journal::RecoveredState> recovered = journal.recover(o.op_log);
@@ -576,11 +571,17 @@ int main(int argc, char** argv) {
     serve_cmd->add_option("--dem", o.dem, "genesis map: DEM sidecar JSON (new data dir only)")
         ->envname("TERRAIN_DEM");
     serve_cmd->add_option("--seed", o.seed, "genesis map: procedural seed")
-        ->envname("TERRAIN_SEED");
+        ->envname("TERRAIN_SEED")
+        ->capture_default_str();
     serve_cmd->add_option("--size", o.size, "genesis map: procedural size in vertices")
         ->envname("TERRAIN_SIZE")
-        ->check(CLI::Range(65, 8193));
-    serve_cmd->add_option("--tolerance", o.tolerance, "patch tolerance in metres")
+        ->check(CLI::Range(65, 8193))
+        ->capture_default_str();
+    serve_cmd
+        ->add_option(
+            "--tolerance", o.tolerance,
+            "genesis map: patch tolerance in metres (default 1/32 m; a DEM: its spacing / 64, at "
+            "least 1/32 m)")
         ->check(CLI::Range(1.0 / 1024, 10.0));
     serve_cmd->add_option("--max-sessions", o.max_sessions, "player slots (sessions past Hello)")
         ->envname("TERRAIN_MAX_SESSIONS");

@@ -3,7 +3,7 @@
 // memory and timings; writes shaded-relief PNGs before and after. I/O and clocks live here, at
 // the edge; the terrain work is all in terrain_core.
 
-#include <terrain/io/dem_import.h>
+#include <terrain/io/genesis.h>
 #include <terrain/io/png_image.h>
 #include <terrain/io/shaded_relief.h>
 #include <terrain/op_script.h>
@@ -111,47 +111,22 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     CLI11_PARSE(app, argc, argv);
 
-    terrain::io::DemImportOptions import_options;
-    if (tolerance > 0.0)
-        import_options.patch_tolerance_metres = tolerance;
+    terrain::io::GenesisOptions genesis;
+    genesis.dem = dem_path;
+    genesis.png = png_path;
+    genesis.png_vertical_scale = vscale;
+    genesis.seed = seed;
+    genesis.size = size;
     if (spacing > 0.0)
-        import_options.spacing_metres = spacing;
-
+        genesis.spacing_metres = spacing;
+    if (tolerance > 0.0)
+        genesis.patch_tolerance_metres = tolerance;
     const auto load_start = Clock::now();
-    std::string source;
-    std::optional<terrain::Terrain> world;
-    if (!dem_path.empty()) {
-        auto dem = terrain::io::importDem(dem_path, import_options);
-        if (!dem)
-            return fail("cannot import " + dem_path, dem.error());
-        source = "DEM " + dem->info.name + " (spacing " + std::to_string(dem->info.spacing_metres) +
-                 " m from " + dem->info.spacing_source + ")";
-        world.emplace(std::move(dem->terrain));
-    } else if (!png_path.empty()) {
-        if (spacing <= 0.0) {
-            std::fprintf(stderr, "terrain-sim: --png needs --spacing\n");
-            return 2;
-        }
-        auto dem = terrain::io::importPng(png_path, spacing, vscale, 0.0, import_options);
-        if (!dem)
-            return fail("cannot import " + png_path, dem.error());
-        source = "PNG " + png_path;
-        world.emplace(std::move(dem->terrain));
-    } else {
-        terrain::ProceduralMapOptions o;
-        o.seed = seed;
-        o.width = size;
-        o.height = size;
-        if (tolerance > 0.0)
-            o.patch_tolerance_metres = tolerance;
-        if (spacing > 0.0)
-            o.spacing_metres = spacing;
-        auto map = terrain::makeProceduralMap(o);
-        if (!map)
-            return fail("cannot generate the map", map.error());
-        source = "procedural map, seed " + std::to_string(seed);
-        world.emplace(std::move(*map));
-    }
+    auto made = terrain::io::makeGenesis(genesis);
+    if (!made)
+        return fail("cannot make the map", made.error());
+    const std::string source = made->source;
+    std::optional<terrain::Terrain> world(std::move(made->terrain));
     terrain::Terrain& t = *world;
     const double load_ms = msSince(load_start);
     const terrain::WorldSpec& spec = t.spec();

@@ -1,4 +1,4 @@
-#include <terrain/procedural_map.h>
+#include <terrain/io/genesis.h>
 #include <terrain/replay/soak.h>
 
 #include <chrono>
@@ -27,13 +27,13 @@ Result<SoakResult> runSoak(const SoakOptions& options) {
         return makeError(
             ErrorCode::kIo, options.directory.string() + " is not empty (the soak's journal "
                                                          "goes there)");
-    ProceduralMapOptions map;
+    io::GenesisOptions map; // the procedural map, as a new server makes it
     map.seed = options.seed;
-    map.width = options.map_size;
-    map.height = options.map_size;
-    auto genesis = makeProceduralMap(map);
-    if (!genesis)
-        return genesis.error();
+    map.size = options.map_size;
+    auto world = io::makeGenesis(map);
+    if (!world)
+        return world.error();
+    const Terrain* genesis = &world->terrain;
 
     SoakResult result;
     {
@@ -49,7 +49,7 @@ Result<SoakResult> runSoak(const SoakOptions& options) {
         SoakOps source(options.seed, genesis->spec(), options.mix);
         std::uint64_t made = 0;
         LiveRunInput input;
-        input.base = &*genesis;
+        input.base = genesis;
         input.base_seq = 0;
         input.journal = &*journal;
         input.next = [&](const client::Replica& feeder) -> std::optional<FeedRequest> {
