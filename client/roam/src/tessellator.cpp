@@ -16,7 +16,8 @@ namespace terrain::roam {
 using namespace detail;
 
 Tessellator::Tessellator(const Terrain& terrain, const TessellatorOptions& options)
-    : terrain_(&terrain), options_(options), threshold_(options.tau_pixels) {
+    : terrain_(&terrain), options_(options),
+      policy_(space_, options.tau_pixels, options.cull_sweep_degrees) {
     terrainChanged({}, true);
 }
 
@@ -40,62 +41,32 @@ void Tessellator::adoptSpec() {
     space_.reset(grid_count_, BoundsCodec(spec_.metresPerUnit()));
     pool_.clear();
     pool_.restartClock();
-    heap_.reset();
+    policy_.forgetIds();
 }
 
 // ---- candidates ---------------------------------------------------------------------------
 
-void Tessellator::setCandidate(DiamondId id, std::uint8_t kind) {
-    state(id) = static_cast<std::uint8_t>((state(id) & kActive) | kind);
-}
+struct Tessellator::PolicyMesh final : SplitMergeMesh {
+    explicit PolicyMesh(Tessellator& t) : t_(t) {}
 
-void Tessellator::clearCandidate(DiamondId id) {
-    state(id) = static_cast<std::uint8_t>(state(id) & kActive);
-    if (heap_.contains(id))
-        heap_.remove(id);
-}
+    Extent extentOf(DiamondId id) const override {
+        const Bounds b = t_.bounds(id);
+        return {t_.boxOf(diamondAt(t_.pointOf(id)), b), b.delta};
+    }
+    bool split(DiamondId id, FrameStats& stats) override {
+        t_.refused_by_cap_ = false;
+        return t_.activate(diamondAt(t_.pointOf(id)), id, false, stats);
+    }
+    void merge(DiamondId id, FrameStats& stats) override {
+        const Diamond d = diamondAt(t_.pointOf(id));
+        if (!t_.hasActiveChild(d))
+            t_.deactivate(d, id, stats);
+    }
+    bool budgetSpent(FrameStats& stats) const override { return t_.budgetSpent(stats); }
 
-void Tessellator::evaluate(const ViewMetric& m, DiamondId id, FrameStats& stats) {
-    const std::uint8_t st = state(id);
-    if ((st & (kSplitCandidate | kMergeCandidate)) == 0)
-        return;
-    if (heap_.contains(id))
-        heap_.remove(id);
-    const Diamond d = diamondAt(pointOf(id));
-    ++stats.evaluations;
-    const Bounds bounds_of = bounds(id);
-    const Box box = boxOf(d, bounds_of);
-    const double tau = threshold_;
-    if (box.lo.x > box.hi.x) {
-        // wholly in the padding: never worth a triangle
-        if ((st & kMergeCandidate) != 0)
-            merges_.push_back({0.0, id});
-        return;
-    }
-    const double delta = bounds_of.delta;
-    const double distance = m.distanceTo(box);
-    const double any = m.screenErrorAtDistance(distance, delta);
-    const double p = any > tau && !m.intersectsFrustum(box) ? 0.0 : any;
-    // distance at which the priority crosses tau; priorities depend on the eye position only
-    const double crossing = m.errorScale() * delta / tau;
-    if ((st & kSplitCandidate) != 0) {
-        if (p > tau) {
-            splits_.push_back({p, id});
-        } else if (any > tau) {
-            state(id) |= kWatched;
-            watched_.push_back(id);
-        } else if (m.errorScale() * delta / options_.tau_pixels > m.camera().near_plane) {
-            // (tested at tau, not at the threshold: the threshold may fall back to tau, and
-            // then these must be in the heap)
-            heap_.push(id, travel_ + std::max(0.0, distance - crossing));
-        }
-        return;
-    }
-    if (p <= tau)
-        merges_.push_back({p, id});
-    else // due when the eye has moved away far enough, or far enough to take it out of view
-        heap_.push(id, travel_ + std::min(std::max(0.0, crossing - distance), m.exitSlack(box)));
-}
+  private:
+    Tessellator& t_;
+};
 
 void Tessellator::collectCandidates(const Triangle& t) {
     if (t.level >= kFinestTriangleLevel)
@@ -110,16 +81,13 @@ void Tessellator::collectCandidates(const Triangle& t) {
     if (id == kNoDiamond)
         return;
     if (active(id)) {
-        if ((state(id) & kMergeCandidate) == 0 && !hasActiveChild(d)) {
-            setCandidate(id, kMergeCandidate);
-            due_.push_back(id);
-        }
+        if ((state(id) & kMergeCandidate) == 0 && !hasActiveChild(d))
+            policy_.offer(id, kMergeCandidate);
         const auto halves = splitTriangle(t);
         collectCandidates(halves[0]);
         collectCandidates(halves[1]);
     } else if ((state(id) & kSplitCandidate) == 0 && canActivate(d, id)) {
-        setCandidate(id, kSplitCandidate);
-        due_.push_back(id);
+        policy_.offer(id, kSplitCandidate);
     }
 }
 
@@ -135,7 +103,7 @@ void Tessellator::refineTopDown(
         // a detail cell whose block is not resident: materialised only if it may be split
         const Diamond d = diamondAt(p);
         if (blocks_.recordOf(p.x / kLatticePerCell, p.y / kLatticePerCell) < 0 || isGridVertex(p) ||
-            recordPriority(m, d) <= threshold_)
+            recordPriority(m, d) <= policy_.threshold())
             return;
         id = resolve(p);
         if (id == kNoDiamond) {
@@ -148,7 +116,7 @@ void Tessellator::refineTopDown(
     if (!active(id)) {
         const Diamond d = diamondAt(p);
         ++stats.evaluations;
-        if (priority(m, d, id) <= threshold_)
+        if (priority(m, d, id) <= policy_.threshold())
             return;
         if (!activate(d, id, false, stats)) {
             capped = refused_by_cap_;
@@ -163,12 +131,7 @@ void Tessellator::refineTopDown(
 void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
     bookkeeping_ = false;
     space_.clearStates();
-    heap_.clear();
-    watched_.clear();
-    rekey_.clear();
-    due_.clear();
-    splits_.clear();
-    merges_.clear();
+    policy_.clearCandidates();
     std::int64_t roots = 0;
     for (std::int32_t tile = 0; tile < tileCount(); ++tile) {
         const Diamond root = tileRoot(tile);
@@ -179,9 +142,9 @@ void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
     refused_by_cap_ = false;
     // a cap that bound before (the threshold is above tau) most likely binds again: go
     // best-first at once rather than refine top-down until the cap stops it
-    bool capped = threshold_ > options_.tau_pixels;
-    prefetchBlocks(m, threshold_);
-    threshold_ = options_.tau_pixels;
+    bool capped = policy_.threshold() > options_.tau_pixels;
+    prefetchBlocks(m, policy_.threshold());
+    policy_.setThreshold(options_.tau_pixels);
     for (std::int32_t tile = 0; tile < tileCount() && !capped; ++tile) {
         const Diamond root = tileRoot(tile);
         for (const LatticePoint a : apexes(root))
@@ -199,7 +162,7 @@ void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
                 ? static_cast<std::int64_t>(
                       static_cast<double>(options_.max_triangles) * kCapTarget)
                 : options_.max_triangles;
-        threshold_ = std::max(options_.tau_pixels, refineBestFirst(m, target, stats));
+        policy_.setThreshold(std::max(options_.tau_pixels, refineBestFirst(m, target, stats)));
     }
     for (std::int32_t tile = 0; tile < tileCount(); ++tile)
         emitTile(tile);
@@ -212,121 +175,8 @@ void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
         for (const LatticePoint a : apexes(root))
             collectCandidates(triangleOf(root, a));
     }
-    for (const DiamondId id : due_)
-        evaluate(m, id, stats);
-    due_.clear();
-    // only a binding cap leaves work here; it waits for the next frame
-    for (const Action& a : splits_)
-        heap_.push(a.id, travel_);
-    for (const Action& a : merges_)
-        heap_.push(a.id, travel_);
-    splits_.clear();
-    merges_.clear();
-}
-
-void Tessellator::updateSplitMerge(const ViewMetric& m, FrameStats& stats) {
-    // merge candidates kept split because they were in view: their keys cover the eye moving
-    // them out of the frustum (exitSlack) but not the view turning. So their culling is
-    // re-checked as the view turns: as many per frame as the heap holds times the turn over
-    // cull_sweep_degrees, sampled in a low-discrepancy order (about each one per that much
-    // turning, not exactly), or every one on a turn that large within a frame. This only
-    // delays merges of regions out of view; no needed split depends on it.
-    const glm::dvec3 forward = glm::normalize(m.camera().forward);
-    const glm::dvec3 up = glm::normalize(m.camera().up);
-    const double turned = std::acos(std::clamp(glm::dot(forward, last_forward_), -1.0, 1.0)) +
-                          std::acos(std::clamp(glm::dot(up, last_up_), -1.0, 1.0));
-    last_forward_ = forward;
-    last_up_ = up;
-    sweep_credit_ += static_cast<double>(heap_.size()) * turned /
-                     (std::max(options_.cull_sweep_degrees, 0.01) * 3.14159265358979323846 / 180.0);
-    const auto sweep =
-        static_cast<std::size_t>(std::min(sweep_credit_, static_cast<double>(heap_.size())));
-    sweep_credit_ = std::min(sweep_credit_ - static_cast<double>(sweep), 1.0);
-    for (std::size_t k = 0; k < sweep; ++k) {
-        // low-discrepancy order (golden-ratio steps) rather than heap order: entries near the
-        // heap's front are the ones near the frustum's sides, and checking them in one block
-        // would merge everything that left the view in one burst
-        sweep_phase_ += 0.6180339887498949;
-        sweep_phase_ -= std::floor(sweep_phase_);
-        const CandidateHeap::Entry e =
-            sweep == heap_.size() // a whole turn's worth: every entry once
-                ? heap_.at(k)
-                : heap_.at(
-                      static_cast<std::size_t>(sweep_phase_ * static_cast<double>(heap_.size())));
-        if ((state(e.id) & kMergeCandidate) == 0 || e.key <= travel_)
-            continue;
-        const Box box = boxOf(diamondAt(pointOf(e.id)), bounds(e.id));
-        if (box.lo.x > box.hi.x || !m.intersectsFrustum(box))
-            due_.push_back(e.id); // taken out of the heap below, so the sweep skips no entry
-    }
-    for (const DiamondId id : due_)
-        if (heap_.contains(id))
-            heap_.remove(id);
-    while (!heap_.empty() && heap_.top().key <= travel_) {
-        const DiamondId id = heap_.top().id;
-        heap_.remove(id);
-        due_.push_back(id);
-    }
-    watched_next_.swap(watched_);
-    watched_.clear();
-    for (const DiamondId id : watched_next_)
-        if ((state(id) & kWatched) != 0) {
-            state(id) = static_cast<std::uint8_t>(state(id) & ~kWatched);
-            due_.push_back(id);
-        }
-    const auto by_priority_up = [](const Action& a, const Action& b) {
-        return a.priority < b.priority;
-    };
-    const auto by_priority_down = [](const Action& a, const Action& b) {
-        return a.priority > b.priority;
-    };
-    deferred_.clear();
-    while (!due_.empty()) {
-        // evaluating appends to due_ only through splits and merges, which happen below
-        evaluating_.swap(due_);
-        due_.clear();
-        for (const DiamondId id : evaluating_)
-            evaluate(m, id, stats);
-        evaluating_.clear();
-        std::sort(merges_.begin(), merges_.end(), by_priority_up);
-        for (const Action& a : merges_) {
-            if ((state(a.id) & kMergeCandidate) == 0 || !active(a.id))
-                continue;
-            if (budgetSpent(stats)) {
-                deferred_.push_back(a.id);
-                continue;
-            }
-            const Diamond d = diamondAt(pointOf(a.id));
-            if (!hasActiveChild(d))
-                deactivate(d, a.id, stats);
-        }
-        merges_.clear();
-        std::sort(splits_.begin(), splits_.end(), by_priority_down);
-        for (const Action& a : splits_) {
-            if ((state(a.id) & kSplitCandidate) == 0 || active(a.id))
-                continue;
-            if (budgetSpent(stats)) {
-                deferred_.push_back(a.id);
-                unmet_ = std::max(unmet_, a.priority);
-                continue;
-            }
-            refused_by_cap_ = false;
-            if (!activate(diamondAt(pointOf(a.id)), a.id, false, stats)) {
-                deferred_.push_back(a.id);
-                unmet_ = std::max(unmet_, a.priority);
-            }
-        }
-        splits_.clear();
-        if (budgetSpent(stats)) {
-            stats.budget_exhausted = true;
-            deferred_.insert(deferred_.end(), due_.begin(), due_.end());
-            due_.clear();
-        }
-    }
-    // left for the next frame: due again as soon as it starts
-    for (const DiamondId id : deferred_)
-        if ((state(id) & (kSplitCandidate | kMergeCandidate)) != 0)
-            heap_.push(id, travel_);
+    PolicyMesh mesh(*this);
+    policy_.settle(m, stats, mesh);
 }
 
 bool Tessellator::budgetSpent(FrameStats& stats) const {
@@ -405,23 +255,18 @@ FrameStats Tessellator::update(const Camera& camera) {
         rebuildTopDown(m, stats);
         needs_rebuild_ = false;
         initialized_ = true;
-        last_forward_ = glm::normalize(camera.forward);
-        last_up_ = glm::normalize(camera.up);
-        sweep_credit_ = 0.0;
+        policy_.restartSweep(camera);
     } else {
-        travel_ += glm::length(camera.eye - last_eye_);
-        unmet_ = 0.0;
-        // while a threshold move is being spread, candidates not yet re-examined still hold to
-        // the threshold before it
-        const double threshold = rekey_.empty() ? threshold_ : std::max(threshold_, rekey_from_);
-        spreadRekey();
-        updateSplitMerge(m, stats);
-        stats.error_bound_pixels = std::max(threshold, unmet_);
+        PolicyMesh mesh(*this);
+        stats.error_bound_pixels =
+            policy_.frame(m, glm::length(camera.eye - last_eye_), stats, mesh);
         stats.refused_by_cap += pool_refusals_ - pool_refusals; // the pool binds like the cap
-        followCap(stats);
+        policy_.followCap(
+            stats, triangles_, options_.max_triangles,
+            frame_ > last_pool_refusal_ + kPoolQuietFrames);
     }
     if (stats.rebuilt)
-        stats.error_bound_pixels = threshold_;
+        stats.error_bound_pixels = policy_.threshold();
     last_eye_ = camera.eye;
     last_error_scale_ = m.errorScale();
     last_near_ = camera.near_plane;
@@ -451,7 +296,7 @@ bool Tessellator::splitAt(LatticePoint p, FrameStats& stats) {
 
 void Tessellator::setTau(double tau_pixels) {
     options_.tau_pixels = tau_pixels;
-    threshold_ = tau_pixels;
+    policy_.setTau(tau_pixels);
     needs_rebuild_ = true;
 }
 
@@ -463,7 +308,7 @@ TessellatorMemory Tessellator::memory() const {
     m.records = blocks_.memoryBytes() + pool.blocks;
     for (std::size_t g = 0; g < kGrains; ++g)
         m.grains[g] = space.chunks[g] + pool.grains[g];
-    m.heap = heap_.memoryBytes();
+    m.heap = policy_.memoryBytes();
     for (const TileMesh& t : tiles_)
         m.meshes += t.memoryBytes();
     m.meshes += vertices_.memoryBytes();

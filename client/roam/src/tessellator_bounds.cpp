@@ -120,7 +120,7 @@ void Tessellator::resizeDiamondState() {
     for (int g = 0; g < kGrains; ++g)
         space_.resizeChunks(g, pool_.chunkCount(g));
     space_.resizeCentres(static_cast<std::size_t>(blocks_.recordCapacity()));
-    heap_.resizeIds(space_.eagerCount(), space_.pooledCounts());
+    policy_.resizeIds(space_.eagerCount(), space_.pooledCounts());
 }
 
 // ---- error bounds -------------------------------------------------------------------------

@@ -183,16 +183,15 @@ bool Tessellator::activate(const Diamond& d, DiamondId id, bool forced, FrameSta
     if (!bookkeeping_)
         return true;
     splitTriangles(d, true, forced);
-    clearCandidate(id);
+    policy_.clearCandidate(id);
     if (d.level > 0)
         for (const LatticePoint a : apexes(d))
             if (insideMap(a)) {
                 const DiamondId parent = idOf(a);
                 if ((state(parent) & kMergeCandidate) != 0)
-                    clearCandidate(parent);
+                    policy_.clearCandidate(parent);
             }
-    setCandidate(id, kMergeCandidate);
-    due_.push_back(id);
+    policy_.offer(id, kMergeCandidate);
     std::array<LatticePoint, 4> kids{};
     const int n = children(d, kids);
     for (int i = 0; i < n; ++i) {
@@ -204,8 +203,7 @@ bool Tessellator::activate(const Diamond& d, DiamondId id, bool forced, FrameSta
         if (child == kNoDiamond && parentsActive(cd))
             child = resolve(c); // a virtual cell's block, hanging from the real cell before it
         if (child != kNoDiamond && !active(child) && canActivate(cd, child)) {
-            setCandidate(child, kSplitCandidate);
-            due_.push_back(child);
+            policy_.offer(child, kSplitCandidate);
         }
     }
     return true;
@@ -218,15 +216,14 @@ void Tessellator::deactivate(const Diamond& d, DiamondId id, FrameStats& stats) 
     if (!bookkeeping_)
         return;
     splitTriangles(d, false, false);
-    clearCandidate(id);
-    setCandidate(id, kSplitCandidate);
-    due_.push_back(id);
+    policy_.clearCandidate(id);
+    policy_.offer(id, kSplitCandidate);
     std::array<LatticePoint, 4> kids{};
     const int n = children(d, kids);
     for (int i = 0; i < n; ++i) {
         const DiamondId child = idOf(kids[idx(i)]);
         if (child != kNoDiamond && (state(child) & kSplitCandidate) != 0)
-            clearCandidate(child);
+            policy_.clearCandidate(child);
     }
     if (d.level == 0)
         return;
@@ -236,8 +233,7 @@ void Tessellator::deactivate(const Diamond& d, DiamondId id, FrameStats& stats) 
         const DiamondId parent = idOf(a);
         const Diamond pd = diamondAt(a);
         if (active(parent) && !hasActiveChild(pd)) {
-            setCandidate(parent, kMergeCandidate);
-            due_.push_back(parent);
+            policy_.offer(parent, kMergeCandidate);
         }
     }
 }
@@ -467,18 +463,15 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
         // a snapshot may bring another world (size, spacing): start from its spec
         if (tiles_.empty() || !(terrain_->spec() == spec_))
             adoptSpec();
-        // the heap forgets its ids before their ranges shrink with the pool (clear() writes to
+        // the heap forgets its ids before their ranges shrink with the pool (clearing writes to
         // each held id's position)
-        heap_.clear();
+        policy_.clearCandidates();
         blocks_.reset(*terrain_); // records only: no block resident
         stale_.clear();
         pool_.clear();
         space_.dropChunks();
         resizeDiamondState();
         space_.clearStates();
-        watched_.clear();
-        rekey_.clear();
-        due_.clear();
         for (std::int32_t tile = 0; tile < tileCount(); ++tile) {
             vertices_.clearTile(tile);
             vertices_.bumpVersion(tile);
@@ -516,11 +509,11 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
                         ignored);
                 for (std::uint32_t local = 1; local < kDiamondsPerBlock; ++local)
                     if (const DiamondId id = pooledId(block, local); id != kNoDiamond)
-                        clearCandidate(id);
+                        policy_.clearCandidate(id);
                 // its segments in the tile's vertex array become holes: nothing refers to them
                 evict(block);
             }
-            clearCandidate(centreId(record));
+            policy_.clearCandidate(centreId(record));
             state(centreId(record)) = 0;
         }
         // the centres' bounds before (they are derived, not stored): only those that move are
@@ -597,10 +590,9 @@ void Tessellator::refreshCandidate(DiamondId id) {
         kind = hasActiveChild(d) ? 0 : kMergeCandidate;
     else if (canActivate(d, id))
         kind = kSplitCandidate;
-    clearCandidate(id);
+    policy_.clearCandidate(id);
     if (kind != 0) {
-        setCandidate(id, kind);
-        due_.push_back(id);
+        policy_.offer(id, kind);
     }
 }
 

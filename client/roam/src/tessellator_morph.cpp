@@ -33,8 +33,9 @@ void Tessellator::morphedHeights(
     MorphWalk walk;
     walk.view = &view;
     walk.tile = tile;
-    walk.low = threshold_;
-    walk.inv_band = full_pixels > threshold_ ? 1.0 / (full_pixels - threshold_) : 0.0;
+    const double threshold = policy_.threshold();
+    walk.low = threshold;
+    walk.inv_band = full_pixels > threshold ? 1.0 / (full_pixels - threshold) : 0.0;
     walk.drawn = out;
     const Diamond root = tileRoot(tile);
     for (const LatticePoint a : apexes(root)) {

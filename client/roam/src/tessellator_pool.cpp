@@ -45,7 +45,7 @@ void Tessellator::releaseGrain(std::int32_t block, int g) {
     // no diamond of the grain is split or a candidate, so no triangle uses its vertices
     const std::int32_t chunk = pool_.chunkOf(block, g);
     for (std::uint32_t slot = 0; slot < static_cast<std::uint32_t>(kGrainDiamonds[idx(g)]); ++slot)
-        TERRAIN_ASSERT(!heap_.contains(grainId(g, chunk, slot)));
+        TERRAIN_ASSERT(!policy_.holds(grainId(g, chunk, slot)));
     space_.clearChunk(g, chunk);
     detachGrain(block, g);
     pool_.releaseChunk(block, g);
@@ -98,35 +98,15 @@ struct Tessellator::PoolMover final : BlockPool::Mover {
             const std::int32_t tile = t_.tileOfCell(t_.blocks_.cellOf(t_.pool_.blockOf(g, to)));
             t_.vertices_.rechunk(tile, segment, to);
         }
-        const auto diamonds = static_cast<std::uint32_t>(kGrainDiamonds[idx(g)]);
-        for (std::uint32_t slot = 0; slot < diamonds; ++slot)
-            if (t_.state(grainId(g, to, slot)) != 0 && t_.heap_.contains(grainId(g, from, slot)))
-                t_.heap_.rename(grainId(g, from, slot), grainId(g, to, slot));
+        t_.policy_.chunkMoved(g, from, to);
     }
 
     void chunksCut(
         int g,
         std::size_t end,
         std::span<const std::pair<std::int32_t, std::int32_t>> moved) override {
-        // ids of the chunks cut off, in the lists kept across frames: renamed if the chunk
-        // moved; dropped if it was free (a released grain's watched ids lost their state)
-        const auto rename = [&](std::vector<DiamondId>& ids) {
-            std::erase_if(ids, [&](DiamondId& id) {
-                if (id < kPooled || grainOfId(id) != g)
-                    return false;
-                const auto chunk = DiamondSpace::chunkOfId(id, g);
-                if (idx(chunk) < end)
-                    return false;
-                for (const auto& [from, to] : moved)
-                    if (from == chunk) {
-                        id = grainId(g, to, DiamondSpace::slotOfId(id, g));
-                        return false;
-                    }
-                return true;
-            });
-        };
-        rename(t_.watched_);
-        rename(t_.rekey_);
+        // ids of the chunks cut off, in the lists kept across frames
+        t_.policy_.chunksCut(g, end, moved);
         t_.space_.fitChunks(g, end);
         t_.resizeDiamondState();
     }

@@ -44,19 +44,28 @@
 //
 // Output per tile: a TileMesh of indices into the tile's vertex array, which is the 65 x 65 base
 // grid followed by one segment per resident grain of a block of the tile (tileVertex()).
+// This class is a facade: the frame's passes (update()), the lattice walk (splits with their
+// forced parents, merges, emission into the tiles' lists) and the bounds along an op's paths.
+// Its parts own their state, each with its header and tests (ARCHITECTURE.md draws them):
+// DiamondSpace (per-id state and bounds), BlockPool (the blocks' grains and the rules that
+// evict them), StaleBlocks (what an op left stale), TileVertexArrays (the renderer's vertex
+// layout), SplitMerge (the policy: candidates, threshold, budget order), with CandidateHeap,
+// TileMesh, DetailBlocks and BlockBounds below them.
 // Pure: no GL, no clocks, no I/O. Single-threaded.
 
 #include <terrain/roam/block_bounds.h>
 #include <terrain/roam/block_grains.h>
 #include <terrain/roam/block_pool.h>
 #include <terrain/roam/camera.h>
-#include <terrain/roam/candidate_heap.h>
 #include <terrain/roam/detail_blocks.h>
 #include <terrain/roam/diamond_id.h>
 #include <terrain/roam/diamond_space.h>
+#include <terrain/roam/frame_stats.h>
 #include <terrain/roam/lattice.h>
 #include <terrain/roam/packed_bounds.h>
+#include <terrain/roam/split_merge.h>
 #include <terrain/roam/stale_blocks.h>
+#include <terrain/roam/tessellator_options.h>
 #include <terrain/roam/tile_mesh.h>
 #include <terrain/roam/tile_vertex_arrays.h>
 #include <terrain/terrain.h>
@@ -67,97 +76,6 @@
 #include <vector>
 
 namespace terrain::roam {
-
-enum class TessellationMode : std::uint8_t { kSplitMerge, kSplitOnly };
-
-struct TessellatorOptions {
-    double tau_pixels = 1.0;
-    TessellationMode mode = TessellationMode::kSplitMerge;
-    /// Triangle cap (the pool): splits beyond it are refused.
-    std::int64_t max_triangles = 4'000'000;
-    /// Detail blocks resident at once (about 7.7 KB each with their diamond state); a split
-    /// that needs one more while all are in use is refused like the triangle cap.
-    std::int32_t max_detail_blocks = 32768;
-    /// A block no diamond refers to is released once unused for about this many frames (a
-    /// sweep looks at a few hundred slots per frame); 0: only when the pool needs its slot.
-    std::int32_t detail_block_idle_frames = 600;
-    /// Work per frame in kSplitMerge, in splits: a split or merge counts 1, a detail block or
-    /// grain made on the way kMaterialiseWork (its kernel pass); the rest waits for the next
-    /// frame, and the frame reports budget_exhausted. A crater in a battle needs about 2,000; a
-    /// U-turn low over the battle about 150,000 splits and 13,000 blocks (spread over frames).
-    std::int64_t work_budget = 40'000;
-    /// A block or grain materialised during split/merge costs this many splits of work_budget.
-    static constexpr std::int64_t kMaterialiseWork = 16;
-    /// Bytes the frame's splits and merges may make a renderer upload: each index page
-    /// (TileMesh::kSlotsPerPage slots) when first written since the renderer took the tile,
-    /// each grain's vertices when they join a tile's array (kUploadBytesPerVertex each). Past
-    /// it the rest waits for the next frame, like work past work_budget, and the frame's error
-    /// bound says so (budget_exhausted). Ops' own height changes are not held back (they are
-    /// paced where they arrive). 0: no limit. 2 MiB: 120 MB/s at 60 frames a second, a small
-    /// share of any GPU's bus; a U-turn low over a battle wants 5-15 MiB in one frame.
-    std::int64_t upload_budget_bytes = 2 << 20;
-    static constexpr std::int64_t kUploadBytesPerVertex = 16;
-    /// Detail blocks whose bounds an op made stale, recomputed per frame (their heights follow
-    /// the op at once, so the mesh drawn is the new surface); the rest wait for the next frames,
-    /// and meanwhile the error bound is not exact there (FrameStats::stale_blocks). A crater in
-    /// a battle makes about 300 stale; 0: no limit.
-    std::int64_t stale_block_budget = 512;
-    /// An eye jump longer than this rebuilds top-down; 0 means 8 tiles.
-    double teleport_metres = 0.0;
-    /// Merge candidates' culling is re-checked as the view turns, about all of them per this
-    /// much turning (sampled in a low-discrepancy order, so not exactly each one), and every one
-    /// on a turn of this much in one frame. Out-of-view regions merge within about this turn.
-    double cull_sweep_degrees = 4.0;
-};
-
-/// Where a tessellator's memory goes (bytes, capacity of its arrays).
-struct TessellatorMemory {
-    std::size_t grid = 0;    ///< eager diamond state: the grid's and the detail cells' centres
-    std::size_t records = 0; ///< detail cells' records and the cell table
-    std::array<std::size_t, 3> grains{}; ///< resident blocks, by grain (block_grains.h)
-    std::size_t heap = 0;                ///< the candidate heap, and its per-id positions
-    std::size_t meshes = 0;              ///< the tiles' index lists and vertex segments
-    std::size_t scratch = 0;             ///< the bounds pass
-    std::size_t total() const {
-        return grid + records + grains[0] + grains[1] + grains[2] + heap + meshes + scratch;
-    }
-};
-
-struct FrameStats {
-    std::int64_t splits = 0;
-    std::int64_t forced_splits = 0; ///< of which forced by a finer split
-    std::int64_t merges = 0;
-    std::int64_t evaluations = 0;     ///< priorities computed
-    std::int64_t refused_by_cap = 0;  ///< splits refused by the triangle cap or the block pool
-    std::int64_t refused_by_pool = 0; ///< of which for want of a detail block
-    std::int64_t blocks_materialised = 0;
-    std::int64_t blocks_evicted = 0;
-    std::int64_t stale_blocks_bounded = 0; ///< blocks whose stale bounds this frame redid
-    std::int64_t stale_blocks = 0;         ///< still waiting (their error bound is the old one)
-    std::int64_t triangles = 0;            ///< emitted, all tiles
-    std::int64_t visible_triangles = 0;    ///< in tiles that intersect the frustum
-    std::int64_t index_bytes_written = 0;
-    std::int64_t index_bytes_total = 0; ///< size of every tile's index list
-    /// What split/merge this frame will make a renderer upload (upload_budget_bytes' measure:
-    /// index pages first written, grain vertices added).
-    std::int64_t upload_bytes = 0;
-    bool upload_budget_bound = false; ///< splits or merges waited for the upload budget
-    /// The screen error (pixels) every triangle of the mesh is within: tau, or the higher
-    /// threshold the triangle cap forced, or more while splits the frame wanted wait (cap or
-    /// work budget). Exact only when !budget_exhausted (waiting candidates were not all priced).
-    double error_bound_pixels = 0.0;
-    bool rebuilt = false;
-    bool budget_exhausted = false;
-};
-
-/// A tile vertex: lattice position (1/16 cell) and height in fine units (1/16 quantum).
-struct TileVertex {
-    LatticePoint position;
-    std::int64_t height = 0;
-    /// Lattice origin of the cell whose block holds it; (-1, -1) on the base grid. A vertex on a
-    /// cell border is in both cells' blocks, with the same height.
-    LatticePoint block_origin{-1, -1};
-};
 
 class Tessellator {
   public:
@@ -182,7 +100,7 @@ class Tessellator {
     /// A new triangle cap, followed over the next frames (the threshold moves; no rebuild).
     void setMaxTriangles(std::int64_t max_triangles) { options_.max_triangles = max_triangles; }
     /// The threshold the mesh is refined to: tau_pixels, or higher while the cap binds.
-    double threshold() const { return threshold_; }
+    double threshold() const { return policy_.threshold(); }
     /// Splits the diamond centred at `p`, forcing every ancestor it needs, whatever the metric
     /// says (tools, tests); the next update() merges it again if it is not needed. Returns false
     /// if there is no such diamond or the cap refuses it.
@@ -439,11 +357,10 @@ class Tessellator {
     void rebuildTopDown(const ViewMetric& m, FrameStats& stats);
     /// Splits best-first until `target` triangles; returns a bound on the error left.
     double refineBestFirst(const ViewMetric& m, std::int64_t target, FrameStats& stats);
-    void followCap(const FrameStats& stats);
-    void spreadRekey();
     void refineTopDown(const ViewMetric& m, const Triangle& t, FrameStats& stats, bool& capped);
     void collectCandidates(const Triangle& t);
-    void updateSplitMerge(const ViewMetric& m, FrameStats& stats);
+    /// What the split/merge policy reads of the mesh and does to it.
+    struct PolicyMesh;
     /// This frame's split/merge work so far, in the units of TessellatorOptions::work_budget.
     std::int64_t workSpent(const FrameStats& stats) const {
         return stats.splits + stats.merges +
@@ -458,9 +375,7 @@ class Tessellator {
     }
     /// Either budget spent: what is left waits for the next frame.
     bool budgetSpent(FrameStats& stats) const;
-    void evaluate(const ViewMetric& m, DiamondId id, FrameStats& stats);
-    void setCandidate(DiamondId id, std::uint8_t kind);
-    void clearCandidate(DiamondId id);
+    /// Re-offers a diamond whose bounds moved as the candidate its place in the mesh makes it.
     void refreshCandidate(DiamondId id);
     /// Replaces rectangles that overlap enough by their union (in place; order not kept).
     static void mergeOverlapping(std::vector<CellRect>& rects);
@@ -527,19 +442,8 @@ class Tessellator {
     std::vector<std::uint64_t> tile_snug_; ///< per tile: the frame its mesh last had no slack
     TileVertexArrays vertices_;
 
-    // split/merge state
-    CandidateHeap heap_;             ///< candidates by the eye travel at which to re-examine them
-    std::vector<DiamondId> watched_; ///< split candidates that want a split but are culled
-    std::vector<DiamondId> watched_next_;
-    struct Action {
-        double priority = 0.0;
-        DiamondId id = 0;
-    };
-    std::vector<Action> splits_;
-    std::vector<Action> merges_;
-    std::vector<DiamondId> due_;
-    std::vector<DiamondId> evaluating_;
-    std::vector<DiamondId> deferred_;
+    // split/merge
+    SplitMerge policy_; ///< the candidates, the threshold (after space_: it holds a reference)
     std::vector<DiamondId> recomputed_;
     std::vector<CellRect> merged_;
     std::vector<std::int32_t> removing_;
@@ -553,17 +457,7 @@ class Tessellator {
     bool refused_by_cap_ = false;
     bool initialized_ = false;
     bool needs_rebuild_ = true;
-    double threshold_ = 0.0; ///< tau, or higher while the cap binds (followCap)
-    double unmet_ = 0.0;     ///< largest priority of a split the frame wanted and did not make
-    std::vector<DiamondId> rekey_; ///< candidates still keyed against rekey_from_
-    double rekey_from_ = 0.0;
-    std::size_t rekey_quota_ = 0; ///< of rekey_, per frame
-    double travel_ = 0.0;
     glm::dvec3 last_eye_{0.0};
-    glm::dvec3 last_forward_{0.0};
-    glm::dvec3 last_up_{0.0};
-    double sweep_credit_ = 0.0;
-    double sweep_phase_ = 0.0;
     std::int64_t triangles_ = 0;
     std::int64_t missing_block_refusals_ = 0;
     /// morphedHeights: per vertex of the tile, the call that last wrote it

@@ -25,6 +25,15 @@ namespace terrain::roam {
 
 inline constexpr std::int32_t kTileBaseVertices = (kTileCells + 1) * (kTileCells + 1);
 
+/// A tile vertex: lattice position (1/16 cell) and height in fine units (1/16 quantum).
+struct TileVertex {
+    LatticePoint position;
+    std::int64_t height = 0;
+    /// Lattice origin of the cell whose block holds it; (-1, -1) on the base grid. A vertex on a
+    /// cell border is in both cells' blocks, with the same height.
+    LatticePoint block_origin{-1, -1};
+};
+
 /// A run [begin, end) of a tile's vertex array.
 struct VertexRange {
     std::uint32_t begin = 0;

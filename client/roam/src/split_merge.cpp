@@ -1,0 +1,284 @@
+#include "tessellator_internal.h"
+
+#include <terrain/roam/split_merge.h>
+
+#include <glm/geometric.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+namespace terrain::roam {
+
+using namespace detail;
+
+namespace {
+
+constexpr std::uint8_t kActive = DiamondSpace::kActive;
+constexpr std::uint8_t kSplitCandidate = DiamondSpace::kSplitCandidate;
+constexpr std::uint8_t kMergeCandidate = DiamondSpace::kMergeCandidate;
+constexpr std::uint8_t kWatched = DiamondSpace::kWatched;
+
+} // namespace
+
+void SplitMerge::clearCandidates() {
+    heap_.clear();
+    watched_.clear();
+    rekey_.clear();
+    due_.clear();
+    splits_.clear();
+    merges_.clear();
+}
+
+void SplitMerge::evaluate(
+    const ViewMetric& m, DiamondId id, FrameStats& stats, SplitMergeMesh& mesh) {
+    const std::uint8_t st = space_->state(id);
+    if ((st & (kSplitCandidate | kMergeCandidate)) == 0)
+        return;
+    if (heap_.contains(id))
+        heap_.remove(id);
+    ++stats.evaluations;
+    const SplitMergeMesh::Extent extent = mesh.extentOf(id);
+    const Box& box = extent.box;
+    const double tau = threshold_;
+    if (box.lo.x > box.hi.x) {
+        // wholly in the padding: never worth a triangle
+        if ((st & kMergeCandidate) != 0)
+            merges_.push_back({0.0, id});
+        return;
+    }
+    const double delta = extent.delta;
+    const double distance = m.distanceTo(box);
+    const double any = m.screenErrorAtDistance(distance, delta);
+    const double p = any > tau && !m.intersectsFrustum(box) ? 0.0 : any;
+    // distance at which the priority crosses tau; priorities depend on the eye position only
+    const double crossing = m.errorScale() * delta / tau;
+    if ((st & kSplitCandidate) != 0) {
+        if (p > tau) {
+            splits_.push_back({p, id});
+        } else if (any > tau) {
+            space_->state(id) |= kWatched;
+            watched_.push_back(id);
+        } else if (m.errorScale() * delta / tau_ > m.camera().near_plane) {
+            // (tested at tau, not at the threshold: the threshold may fall back to tau, and
+            // then these must be in the heap)
+            heap_.push(id, travel_ + std::max(0.0, distance - crossing));
+        }
+        return;
+    }
+    if (p <= tau)
+        merges_.push_back({p, id});
+    else // due when the eye has moved away far enough, or far enough to take it out of view
+        heap_.push(id, travel_ + std::min(std::max(0.0, crossing - distance), m.exitSlack(box)));
+}
+
+void SplitMerge::settle(const ViewMetric& m, FrameStats& stats, SplitMergeMesh& mesh) {
+    for (const DiamondId id : due_)
+        evaluate(m, id, stats, mesh);
+    due_.clear();
+    // only a binding cap leaves work here; it waits for the next frame
+    for (const Action& a : splits_)
+        heap_.push(a.id, travel_);
+    for (const Action& a : merges_)
+        heap_.push(a.id, travel_);
+    splits_.clear();
+    merges_.clear();
+}
+
+void SplitMerge::restartSweep(const Camera& camera) {
+    last_forward_ = glm::normalize(camera.forward);
+    last_up_ = glm::normalize(camera.up);
+    sweep_credit_ = 0.0;
+}
+
+void SplitMerge::sweepCulled(const ViewMetric& m, SplitMergeMesh& mesh) {
+    // merge candidates kept split because they were in view: their keys cover the eye moving
+    // them out of the frustum (exitSlack) but not the view turning. So their culling is
+    // re-checked as the view turns: as many per frame as the heap holds times the turn over
+    // cull_sweep_degrees, sampled in a low-discrepancy order (about each one per that much
+    // turning, not exactly), or every one on a turn that large within a frame. This only
+    // delays merges of regions out of view; no needed split depends on it.
+    const glm::dvec3 forward = glm::normalize(m.camera().forward);
+    const glm::dvec3 up = glm::normalize(m.camera().up);
+    const double turned = std::acos(std::clamp(glm::dot(forward, last_forward_), -1.0, 1.0)) +
+                          std::acos(std::clamp(glm::dot(up, last_up_), -1.0, 1.0));
+    last_forward_ = forward;
+    last_up_ = up;
+    sweep_credit_ += static_cast<double>(heap_.size()) * turned /
+                     (std::max(sweep_degrees_, 0.01) * 3.14159265358979323846 / 180.0);
+    const auto sweep =
+        static_cast<std::size_t>(std::min(sweep_credit_, static_cast<double>(heap_.size())));
+    sweep_credit_ = std::min(sweep_credit_ - static_cast<double>(sweep), 1.0);
+    for (std::size_t k = 0; k < sweep; ++k) {
+        // low-discrepancy order (golden-ratio steps) rather than heap order: entries near the
+        // heap's front are the ones near the frustum's sides, and checking them in one block
+        // would merge everything that left the view in one burst
+        sweep_phase_ += 0.6180339887498949;
+        sweep_phase_ -= std::floor(sweep_phase_);
+        const CandidateHeap::Entry e =
+            sweep == heap_.size() // a whole turn's worth: every entry once
+                ? heap_.at(k)
+                : heap_.at(
+                      static_cast<std::size_t>(sweep_phase_ * static_cast<double>(heap_.size())));
+        if ((space_->state(e.id) & kMergeCandidate) == 0 || e.key <= travel_)
+            continue;
+        const Box box = mesh.extentOf(e.id).box;
+        if (box.lo.x > box.hi.x || !m.intersectsFrustum(box))
+            due_.push_back(e.id); // taken out of the heap below, so the sweep skips no entry
+    }
+}
+
+double
+SplitMerge::frame(const ViewMetric& m, double travelled, FrameStats& stats, SplitMergeMesh& mesh) {
+    travel_ += travelled;
+    unmet_ = 0.0;
+    // while a threshold move is being spread, candidates not yet re-examined still hold to the
+    // threshold before it
+    const double threshold = rekey_.empty() ? threshold_ : std::max(threshold_, rekey_from_);
+    spreadRekey();
+    sweepCulled(m, mesh);
+    for (const DiamondId id : due_)
+        if (heap_.contains(id))
+            heap_.remove(id);
+    while (!heap_.empty() && heap_.top().key <= travel_) {
+        const DiamondId id = heap_.top().id;
+        heap_.remove(id);
+        due_.push_back(id);
+    }
+    watched_next_.swap(watched_);
+    watched_.clear();
+    for (const DiamondId id : watched_next_)
+        if ((space_->state(id) & kWatched) != 0) {
+            space_->state(id) = static_cast<std::uint8_t>(space_->state(id) & ~kWatched);
+            due_.push_back(id);
+        }
+    const auto by_priority_up = [](const Action& a, const Action& b) {
+        return a.priority < b.priority;
+    };
+    const auto by_priority_down = [](const Action& a, const Action& b) {
+        return a.priority > b.priority;
+    };
+    deferred_.clear();
+    while (!due_.empty()) {
+        // evaluating appends to due_ only through splits and merges, which happen below
+        evaluating_.swap(due_);
+        due_.clear();
+        for (const DiamondId id : evaluating_)
+            evaluate(m, id, stats, mesh);
+        evaluating_.clear();
+        std::sort(merges_.begin(), merges_.end(), by_priority_up);
+        for (const Action& a : merges_) {
+            if ((space_->state(a.id) & kMergeCandidate) == 0 || !space_->active(a.id))
+                continue;
+            if (mesh.budgetSpent(stats)) {
+                deferred_.push_back(a.id);
+                continue;
+            }
+            mesh.merge(a.id, stats);
+        }
+        merges_.clear();
+        std::sort(splits_.begin(), splits_.end(), by_priority_down);
+        for (const Action& a : splits_) {
+            if ((space_->state(a.id) & kSplitCandidate) == 0 || space_->active(a.id))
+                continue;
+            if (mesh.budgetSpent(stats)) {
+                deferred_.push_back(a.id);
+                unmet_ = std::max(unmet_, a.priority);
+                continue;
+            }
+            if (!mesh.split(a.id, stats)) {
+                deferred_.push_back(a.id);
+                unmet_ = std::max(unmet_, a.priority);
+            }
+        }
+        splits_.clear();
+        if (mesh.budgetSpent(stats)) {
+            stats.budget_exhausted = true;
+            deferred_.insert(deferred_.end(), due_.begin(), due_.end());
+            due_.clear();
+        }
+    }
+    // left for the next frame: due again as soon as it starts
+    for (const DiamondId id : deferred_)
+        if ((space_->state(id) & (kSplitCandidate | kMergeCandidate)) != 0)
+            heap_.push(id, travel_);
+    return std::max(threshold, unmet_);
+}
+
+void SplitMerge::followCap(
+    const FrameStats& stats, std::int64_t triangles, std::int64_t max_triangles, bool pool_quiet) {
+    // The cap wins over tau: raise the threshold a step whenever it (or the block pool) refused a
+    // split, lower it a step towards tau when the mesh has room to spare. Each change
+    // re-examines every candidate against the new threshold (spread over the next kRekeyFrames
+    // frames by spreadRekey), so the mesh settles on the one a top-down build at the threshold
+    // makes: the best for its triangle count, with no rebuild. A step of 10 % up and 5 % down
+    // moves the count by less than the gap between kCapLow and the cap.
+    double next = threshold_;
+    if (stats.refused_by_cap > 0 || triangles > max_triangles) { // or a lower cap
+        // each refused split wanted at least two triangles more: a view that changed a lot
+        // takes a bigger step (as if the count went with the inverse of the threshold)
+        const double wanted = static_cast<double>(triangles + 2 * stats.refused_by_cap);
+        const double ratio = wanted / (kCapTarget * static_cast<double>(max_triangles));
+        next = threshold_ * std::clamp(ratio, kCapStepUp, kCapStepMax);
+    } else if (
+        threshold_ > tau_ &&
+        static_cast<double>(triangles) < kCapLow * static_cast<double>(max_triangles) &&
+        pool_quiet) // nor the pool lately
+        next = std::max(tau_, threshold_ / kCapStepDown);
+    if (next == threshold_ || !rekey_.empty()) // one move at a time
+        return;
+    rekey_from_ = threshold_;
+    threshold_ = next;
+    rekey_.clear();
+    for (std::size_t i = 0; i < heap_.size(); ++i)
+        rekey_.push_back(heap_.at(i).id);
+    rekey_quota_ = std::max(rekey_.size() / kRekeyFrames + 1, kRekeyAtOnce);
+}
+
+void SplitMerge::spreadRekey() {
+    // the candidates keyed against the old threshold, re-examined over kRekeyFrames frames
+    // rather than all in one (a few hundred thousand at a binding cap: tens of milliseconds);
+    // a small heap goes at once
+    for (std::size_t k = 0; k < rekey_quota_ && !rekey_.empty(); ++k) {
+        const DiamondId id = rekey_.back();
+        rekey_.pop_back();
+        if (!heap_.contains(id))
+            continue; // re-examined since, so keyed against the new threshold
+        heap_.remove(id);
+        due_.push_back(id);
+    }
+}
+
+void SplitMerge::chunkMoved(int g, std::int32_t from, std::int32_t to) {
+    const auto diamonds = static_cast<std::uint32_t>(kGrainDiamonds[static_cast<std::size_t>(g)]);
+    for (std::uint32_t slot = 0; slot < diamonds; ++slot) {
+        const DiamondId old_id = DiamondSpace::pooledId(g, from, slot);
+        const DiamondId new_id = DiamondSpace::pooledId(g, to, slot);
+        if (space_->state(new_id) != 0 && heap_.contains(old_id))
+            heap_.rename(old_id, new_id);
+    }
+}
+
+void SplitMerge::chunksCut(
+    int g, std::size_t end, std::span<const std::pair<std::int32_t, std::int32_t>> moved) {
+    // renamed if the chunk moved; dropped if it was free (a released grain's watched ids lost
+    // their state)
+    const auto rename = [&](std::vector<DiamondId>& ids) {
+        std::erase_if(ids, [&](DiamondId& id) {
+            if (id < kPooledIds || DiamondSpace::grainOfId(id) != g)
+                return false;
+            const std::int32_t chunk = DiamondSpace::chunkOfId(id, g);
+            if (static_cast<std::size_t>(chunk) < end)
+                return false;
+            for (const auto& [from, to] : moved)
+                if (from == chunk) {
+                    id = DiamondSpace::pooledId(g, to, DiamondSpace::slotOfId(id, g));
+                    return false;
+                }
+            return true;
+        });
+    };
+    rename(watched_);
+    rename(rekey_);
+}
+
+} // namespace terrain::roam
