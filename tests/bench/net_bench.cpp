@@ -841,10 +841,8 @@ void printLatency(const char* name, const FanoutResult& r) {
         r.latency_ms.p99, r.latency_ms.max, r.accepted, r.ops, r.latency_missing);
 }
 
-} // namespace
-
-int main(int argc, char** argv) {
-    CLI::App app{"net_bench: server fan-out, wire bytes, joins and memory over loopback TCP"};
+/// The command line.
+struct BenchOptions {
     std::string out_path = "out/bench/net_bench.json";
     int clients = 64;
     int ops = 500;
@@ -860,390 +858,411 @@ int main(int argc, char** argv) {
     double load_seconds = 6.0;
     bool quick = false;
     std::string dem_dir = TERRAIN_DEM_DIR;
-    app.add_option("--out", out_path, "JSON output path");
+    double sync_delay_ms = 0.0;
+    /// Ops in each paced run.
+    int pacedOps() const { return static_cast<int>(paced_rate * paced_seconds + 0.5); }
+};
+
+/// What the phases found: the JSON report and the closing table's figures.
+struct BenchReport {
+    Clock::time_point start = Clock::now();
+    Json root = Json::object();
+    Json memory = Json::object();
+    Json wire_bytes = Json::object();
+    std::size_t rss_start = 0;
+    Summary default_bytes;
+    Summary srtm_bytes;
+    double cold_ms = 0.0;
+    double warm_ms = 0.0;
+    double build_ms = 0.0;
+    std::uint64_t snap_raw = 0;
+    std::uint64_t snap_wire = 0;
+    bool failed = false;
+};
+
+/// The command line into `o`; an exit code when the program should stop (help, a bad option).
+std::optional<int> parseOptions(int argc, char** argv, BenchOptions& o) {
+    CLI::App app{"net_bench: server fan-out, wire bytes, joins and memory over loopback TCP"};
+    app.add_option("--out", o.out_path, "JSON output path");
     auto* clients_opt =
-        app.add_option("--clients", clients, "clients in the fan-out (1 deformer + viewers)")
+        app.add_option("--clients", o.clients, "clients in the fan-out (1 deformer + viewers)")
             ->check(CLI::Range(2, 1000));
     auto* ops_opt =
-        app.add_option("--ops", ops, "deform ops in the windowed fan-out run to full clients")
+        app.add_option("--ops", o.ops, "deform ops in the windowed fan-out run to full clients")
             ->check(CLI::Range(1, 1000000));
-    auto* light_ops_opt =
-        app.add_option(
-               "--light-ops", light_ops, "deform ops in the windowed fan-out run to light viewers")
-            ->check(CLI::Range(1, 1000000));
-    app.add_option("--window", window, "outstanding deform requests")->check(CLI::Range(1, 4096));
-    double sync_delay_ms = 0.0;
+    auto* light_ops_opt = app.add_option(
+                                 "--light-ops", o.light_ops,
+                                 "deform ops in the windowed fan-out run to light viewers")
+                              ->check(CLI::Range(1, 1000000));
+    app.add_option("--window", o.window, "outstanding deform requests")->check(CLI::Range(1, 4096));
     app.add_option(
-           "--sync-delay-ms", sync_delay_ms,
+           "--sync-delay-ms", o.sync_delay_ms,
            "journaled runs: sleep this long before each fdatasync (a slower disk than this one)")
         ->check(CLI::Range(0.0, 1000.0));
-    app.add_option("--client-threads", client_threads, "io threads the clients are spread over")
+    app.add_option("--client-threads", o.client_threads, "io threads the clients are spread over")
         ->check(CLI::Range(1, 64));
-    app.add_option("--paced-rate", paced_rate, "ops per second of the paced run")
+    app.add_option("--paced-rate", o.paced_rate, "ops per second of the paced run")
         ->check(CLI::PositiveNumber);
-    auto* paced_opt = app.add_option("--paced-seconds", paced_seconds, "length of the paced run")
+    auto* paced_opt = app.add_option("--paced-seconds", o.paced_seconds, "length of the paced run")
                           ->check(CLI::NonNegativeNumber);
-    app.add_option("--join-craters", join_craters, "craters applied to the SRTM map before joins")
+    app.add_option("--join-craters", o.join_craters, "craters applied to the SRTM map before joins")
         ->check(CLI::Range(0, 1000000));
-    app.add_option("--srtm-ops", srtm_ops, "crater ops in the SRTM wire-bytes run")
+    app.add_option("--srtm-ops", o.srtm_ops, "crater ops in the SRTM wire-bytes run")
         ->check(CLI::Range(1, 1000000));
-    app.add_option("--dem-dir", dem_dir, "folder holding srtm_n44w072/");
+    app.add_option("--dem-dir", o.dem_dir, "folder holding srtm_n44w072/");
     app.add_option(
-           "--join-load-rate", load_rate,
+           "--join-load-rate", o.load_rate,
            "ops per second of the SRTM paced runs with and without a join every second")
         ->check(CLI::PositiveNumber);
     auto* load_seconds_opt =
-        app.add_option("--join-load-seconds", load_seconds, "length of each of those runs")
+        app.add_option("--join-load-seconds", o.load_seconds, "length of each of those runs")
             ->check(CLI::PositiveNumber);
     app.add_flag(
-        "--quick", quick,
+        "--quick", o.quick,
         "smoke test: 16 clients, 100 ops (300 light), 2 s paced runs, 100 SRTM ops");
-    CLI11_PARSE(app, argc, argv);
-    if (quick) {
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
+    }
+    if (o.quick) {
         if (clients_opt->count() == 0)
-            clients = 16;
+            o.clients = 16;
         if (ops_opt->count() == 0)
-            ops = 100;
+            o.ops = 100;
         if (light_ops_opt->count() == 0)
-            light_ops = 300;
+            o.light_ops = 300;
         if (paced_opt->count() == 0)
-            paced_seconds = 2.0;
-        srtm_ops = std::min(srtm_ops, 100);
+            o.paced_seconds = 2.0;
+        o.srtm_ops = std::min(o.srtm_ops, 100);
         if (load_seconds_opt->count() == 0)
-            load_seconds = 3.0;
+            o.load_seconds = 3.0;
     }
 
-    const auto bench_start = Clock::now();
-    bool failed = false;
-    Json root = Json::object();
-    root.set("bench", "net_bench");
-    root.set("date", isoNow());
+    return std::nullopt;
+}
+
+/// The report's head: the machine and the settings.
+void startReport(const BenchOptions& o, BenchReport& report) {
+    report.root.set("bench", "net_bench");
+    report.root.set("date", isoNow());
     {
         Json machine = Json::object();
         machine.set("cpu", cpuModel());
         machine.set(
             "hardware_threads", static_cast<std::uint64_t>(std::thread::hardware_concurrency()));
-        root.set("machine", std::move(machine));
+        report.root.set("machine", std::move(machine));
         Json cfg = Json::object();
-        cfg.set("quick", quick);
-        cfg.set("clients", clients);
-        cfg.set("ops", ops);
-        cfg.set("light_ops", light_ops);
-        cfg.set("window", window);
-        cfg.set("client_threads", client_threads);
-        cfg.set("paced_rate", paced_rate);
-        cfg.set("paced_seconds", paced_seconds);
-        cfg.set("join_craters", join_craters);
-        cfg.set("warm_joins", warm_joins);
-        cfg.set("srtm_ops", srtm_ops);
-        cfg.set("join_load_rate", load_rate);
-        cfg.set("join_load_seconds", load_seconds);
+        cfg.set("quick", o.quick);
+        cfg.set("clients", o.clients);
+        cfg.set("ops", o.ops);
+        cfg.set("light_ops", o.light_ops);
+        cfg.set("window", o.window);
+        cfg.set("client_threads", o.client_threads);
+        cfg.set("paced_rate", o.paced_rate);
+        cfg.set("paced_seconds", o.paced_seconds);
+        cfg.set("join_craters", o.join_craters);
+        cfg.set("warm_joins", o.warm_joins);
+        cfg.set("srtm_ops", o.srtm_ops);
+        cfg.set("join_load_rate", o.load_rate);
+        cfg.set("join_load_seconds", o.load_seconds);
         cfg.set("threads", "server: 1 io thread; clients: client_threads io threads; same process");
-        root.set("config", std::move(cfg));
+        report.root.set("config", std::move(cfg));
     }
 
     std::printf(
         "net_bench: %d clients (%d threads), %d ops to full clients, %d to light viewers, "
         "window %d\n",
-        clients, client_threads, ops, light_ops, window);
-    const std::size_t rss_start = bench::residentBytes();
-    Json memory = Json::object();
-    Json wire_bytes = Json::object();
-    Summary default_bytes;
-    const int paced_ops = static_cast<int>(paced_rate * paced_seconds + 0.5);
+        o.clients, o.client_threads, o.ops, o.light_ops, o.window);
+    report.rss_start = bench::residentBytes();
+}
 
-    // ---------------- 1a: fan-out to light viewers (the server's side of it) ----------------
-    {
+/// 1a: fan-out to light viewers (the server's side of it).
+void lightFanout(const BenchOptions& o, BenchReport& report) {
+    Terrain map = std::move(*makeProceduralMap(ProceduralMapOptions{}));
+    const WorldSpec spec = map.spec();
+    malloc_trim(0);
+    ServerThread srv(std::move(map), benchConfig());
+    const std::size_t rss_server = bench::residentBytes();
+    ClientPool pool(o.client_threads);
+    const std::uint16_t port = srv.port();
+    const auto connect_start = Clock::now();
+    std::size_t queued_peak_connect = 0;
+    pool.add(port, token(100, Role::kDeformer));
+    for (int i = 1; i < o.clients; ++i)
+        pool.addLight(port, token(static_cast<std::uint64_t>(100 + i), Role::kViewer));
+    const bool joined = allJoined(srv, pool, queued_peak_connect);
+    const double connect_ms = msSince(connect_start);
+    if (!joined || !allSynced(srv, pool, 30.0)) {
+        std::fprintf(stderr, "net_bench: FAIL: not every light viewer joined\n");
+        report.failed = true;
+    }
+    const std::size_t rss_clients = bench::residentBytes();
+    FanoutResult fan = runDeform(
+        srv, pool, grenadeCraters(spec, o.light_ops, 11), static_cast<std::size_t>(o.window), 0.0,
+        120.0);
+    printLatency("light fan-out (windowed)", fan);
+    FanoutResult paced;
+    if (o.pacedOps() > 0) {
+        paced = runDeform(srv, pool, grenadeCraters(spec, o.pacedOps(), 12), 0, o.paced_rate, 60.0);
+        printLatency("light fan-out (paced)", paced);
+    }
+    for (const FanoutResult* r : {&fan, &paced})
+        if (r->ops > 0 && (!r->completed || !r->check.all_match)) {
+            std::fprintf(
+                stderr, "net_bench: FAIL light fan-out: %s; %d receivers differ\n",
+                r->failure.c_str(), r->check.clients_differing);
+            for (const auto& n : r->check.notes)
+                std::fprintf(stderr, "  %s\n", n.c_str());
+            report.failed = true;
+        }
+    Json f = fanoutJson(fan, pool.size(), static_cast<std::size_t>(o.window), 0.0);
+    f.set(
+        "receivers", "1 full client (the deformer, with a replica) + light viewers (raw socket, "
+                     "decode each OpApplied, check seq order and the last hash; apply nothing)");
+    f.set("join_all_ms", connect_ms);
+    f.set("server_queued_bytes_peak_join", static_cast<std::uint64_t>(queued_peak_connect));
+    f.set("rss_server_only_bytes", static_cast<std::uint64_t>(rss_server));
+    f.set("rss_with_light_viewers_bytes", static_cast<std::uint64_t>(rss_clients));
+    report.root.set("fanout_light", std::move(f));
+    if (o.pacedOps() > 0) {
+        Json p = fanoutJson(paced, pool.size(), 0, o.paced_rate);
+        p.set("duration_s", o.paced_seconds);
+        report.root.set("fanout_light_paced", std::move(p));
+    }
+    pool.clear();
+    srv.stop();
+    malloc_trim(0);
+}
+
+/// 1c: the same light fan-out with the journal on (group commit), each durability.
+void journaledFanout(const BenchOptions& o, BenchReport& report) {
+    Json durability_json = Json::object();
+    struct JournalRun {
+        journal::Durability d;
+        bool pipelined;
+    };
+    for (const JournalRun run :
+         {JournalRun{journal::Durability::kWrite, true},
+          JournalRun{journal::Durability::kFsync, true},
+          JournalRun{journal::Durability::kFsync, false}}) {
+        const journal::Durability d = run.d;
+        const std::string key =
+            std::string(journal::toString(d)) + (run.pipelined ? "" : "_synchronous");
+        const std::filesystem::path dir =
+            std::filesystem::temp_directory_path() /
+            ("net_bench_journal_" + key + "_" + std::to_string(::getpid()));
+        std::filesystem::remove_all(dir);
         Terrain map = std::move(*makeProceduralMap(ProceduralMapOptions{}));
         const WorldSpec spec = map.spec();
-        malloc_trim(0);
-        ServerThread srv(std::move(map), benchConfig());
-        const std::size_t rss_server = bench::residentBytes();
-        ClientPool pool(client_threads);
-        const std::uint16_t port = srv.port();
-        const auto connect_start = Clock::now();
-        std::size_t queued_peak_connect = 0;
-        pool.add(port, token(100, Role::kDeformer));
-        for (int i = 1; i < clients; ++i)
-            pool.addLight(port, token(static_cast<std::uint64_t>(100 + i), Role::kViewer));
-        const bool joined = allJoined(srv, pool, queued_peak_connect);
-        const double connect_ms = msSince(connect_start);
-        if (!joined || !allSynced(srv, pool, 30.0)) {
-            std::fprintf(stderr, "net_bench: FAIL: not every light viewer joined\n");
-            failed = true;
+        journal::JournalOptions jo{d, 2};
+        if (o.sync_delay_ms > 0.0) // a slower disk than this one
+            jo.before_sync = [ms = o.sync_delay_ms] {
+                std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(ms));
+            };
+        auto opened = journal::Journal::open(dir, jo);
+        if (!opened || !opened->initialize(map, 0)) {
+            std::fprintf(stderr, "net_bench: cannot open a journal in %s\n", dir.c_str());
+            report.failed = true;
+            continue;
         }
-        const std::size_t rss_clients = bench::residentBytes();
+        journal::Journal j = std::move(*opened);
+        server::ServerConfig jconfig = benchConfig();
+        jconfig.pipeline_commits = run.pipelined;
+        ServerThread srv(std::move(map), jconfig, {}, &j);
+        ClientPool pool(o.client_threads);
+        pool.add(srv.port(), token(300, Role::kDeformer));
+        for (int i = 1; i < o.clients; ++i)
+            pool.addLight(srv.port(), token(static_cast<std::uint64_t>(300 + i), Role::kViewer));
+        if (!allSynced(srv, pool, 120.0)) {
+            std::fprintf(stderr, "net_bench: FAIL: journaled run did not join\n");
+            report.failed = true;
+        }
+        const std::string name = "journal " + key;
         FanoutResult fan = runDeform(
-            srv, pool, grenadeCraters(spec, light_ops, 11), static_cast<std::size_t>(window), 0.0,
-            120.0);
-        printLatency("light fan-out (windowed)", fan);
+            srv, pool, grenadeCraters(spec, o.light_ops / 2, 21),
+            static_cast<std::size_t>(o.window), 0.0, 120.0);
+        printLatency((name + " (windowed)").c_str(), fan);
         FanoutResult paced;
-        if (paced_ops > 0) {
-            paced = runDeform(srv, pool, grenadeCraters(spec, paced_ops, 12), 0, paced_rate, 60.0);
-            printLatency("light fan-out (paced)", paced);
+        if (o.pacedOps() > 0) {
+            paced =
+                runDeform(srv, pool, grenadeCraters(spec, o.pacedOps(), 22), 0, o.paced_rate, 60.0);
+            printLatency((name + " (paced)").c_str(), paced);
         }
         for (const FanoutResult* r : {&fan, &paced})
             if (r->ops > 0 && (!r->completed || !r->check.all_match)) {
-                std::fprintf(
-                    stderr, "net_bench: FAIL light fan-out: %s; %d receivers differ\n",
-                    r->failure.c_str(), r->check.clients_differing);
-                for (const auto& n : r->check.notes)
-                    std::fprintf(stderr, "  %s\n", n.c_str());
-                failed = true;
+                std::fprintf(stderr, "net_bench: FAIL %s: %s\n", name.c_str(), r->failure.c_str());
+                report.failed = true;
             }
-        Json f = fanoutJson(fan, pool.size(), static_cast<std::size_t>(window), 0.0);
-        f.set(
-            "receivers",
-            "1 full client (the deformer, with a replica) + light viewers (raw socket, "
-            "decode each OpApplied, check seq order and the last hash; apply nothing)");
-        f.set("join_all_ms", connect_ms);
-        f.set("server_queued_bytes_peak_join", static_cast<std::uint64_t>(queued_peak_connect));
-        f.set("rss_server_only_bytes", static_cast<std::uint64_t>(rss_server));
-        f.set("rss_with_light_viewers_bytes", static_cast<std::uint64_t>(rss_clients));
-        root.set("fanout_light", std::move(f));
-        if (paced_ops > 0) {
-            Json p = fanoutJson(paced, pool.size(), 0, paced_rate);
-            p.set("duration_s", paced_seconds);
-            root.set("fanout_light_paced", std::move(p));
-        }
+        Json one = Json::object();
+        one.set("windowed", fanoutJson(fan, pool.size(), static_cast<std::size_t>(o.window), 0.0));
+        if (o.pacedOps() > 0)
+            one.set("paced", fanoutJson(paced, pool.size(), 0, o.paced_rate));
         pool.clear();
         srv.stop();
+        one.set("commits", static_cast<std::uint64_t>(j.stats().commits));
+        one.set("fsyncs", static_cast<std::uint64_t>(j.stats().fsyncs));
+        one.set("records", static_cast<std::uint64_t>(j.stats().records_written));
+        one.set("pipelined_commits", run.pipelined);
+        one.set("sync_delay_ms_added", o.sync_delay_ms);
+        durability_json.set(key, std::move(one));
+        std::filesystem::remove_all(dir);
     }
+    report.root.set("fanout_light_journaled", std::move(durability_json));
     malloc_trim(0);
+}
 
-    // ---------------- 1c: the same light fan-out with the journal on (group commit)
-    // ----------------
-    {
-        Json durability_json = Json::object();
-        struct JournalRun {
-            journal::Durability d;
-            bool pipelined;
-        };
-        for (const JournalRun run :
-             {JournalRun{journal::Durability::kWrite, true},
-              JournalRun{journal::Durability::kFsync, true},
-              JournalRun{journal::Durability::kFsync, false}}) {
-            const journal::Durability d = run.d;
-            const std::string key =
-                std::string(journal::toString(d)) + (run.pipelined ? "" : "_synchronous");
-            const std::filesystem::path dir =
-                std::filesystem::temp_directory_path() /
-                ("net_bench_journal_" + key + "_" + std::to_string(::getpid()));
-            std::filesystem::remove_all(dir);
-            Terrain map = std::move(*makeProceduralMap(ProceduralMapOptions{}));
-            const WorldSpec spec = map.spec();
-            journal::JournalOptions jo{d, 2};
-            if (sync_delay_ms > 0.0) // a slower disk than this one
-                jo.before_sync = [ms = sync_delay_ms] {
-                    std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(ms));
-                };
-            auto opened = journal::Journal::open(dir, jo);
-            if (!opened || !opened->initialize(map, 0)) {
-                std::fprintf(stderr, "net_bench: cannot open a journal in %s\n", dir.c_str());
-                failed = true;
-                continue;
-            }
-            journal::Journal j = std::move(*opened);
-            server::ServerConfig jconfig = benchConfig();
-            jconfig.pipeline_commits = run.pipelined;
-            ServerThread srv(std::move(map), jconfig, {}, &j);
-            ClientPool pool(client_threads);
-            pool.add(srv.port(), token(300, Role::kDeformer));
-            for (int i = 1; i < clients; ++i)
-                pool.addLight(
-                    srv.port(), token(static_cast<std::uint64_t>(300 + i), Role::kViewer));
-            if (!allSynced(srv, pool, 120.0)) {
-                std::fprintf(stderr, "net_bench: FAIL: journaled run did not join\n");
-                failed = true;
-            }
-            const std::string name = "journal " + key;
-            FanoutResult fan = runDeform(
-                srv, pool, grenadeCraters(spec, light_ops / 2, 21),
-                static_cast<std::size_t>(window), 0.0, 120.0);
-            printLatency((name + " (windowed)").c_str(), fan);
-            FanoutResult paced;
-            if (paced_ops > 0) {
-                paced =
-                    runDeform(srv, pool, grenadeCraters(spec, paced_ops, 22), 0, paced_rate, 60.0);
-                printLatency((name + " (paced)").c_str(), paced);
-            }
-            for (const FanoutResult* r : {&fan, &paced})
-                if (r->ops > 0 && (!r->completed || !r->check.all_match)) {
-                    std::fprintf(
-                        stderr, "net_bench: FAIL %s: %s\n", name.c_str(), r->failure.c_str());
-                    failed = true;
-                }
-            Json one = Json::object();
-            one.set(
-                "windowed", fanoutJson(fan, pool.size(), static_cast<std::size_t>(window), 0.0));
-            if (paced_ops > 0)
-                one.set("paced", fanoutJson(paced, pool.size(), 0, paced_rate));
-            pool.clear();
-            srv.stop();
-            one.set("commits", static_cast<std::uint64_t>(j.stats().commits));
-            one.set("fsyncs", static_cast<std::uint64_t>(j.stats().fsyncs));
-            one.set("records", static_cast<std::uint64_t>(j.stats().records_written));
-            one.set("pipelined_commits", run.pipelined);
-            one.set("sync_delay_ms_added", sync_delay_ms);
-            durability_json.set(key, std::move(one));
-            std::filesystem::remove_all(dir);
-        }
-        root.set("fanout_light_journaled", std::move(durability_json));
-    }
+/// 1b, 2, 4: fan-out to full clients, bytes per op, memory.
+void fullFanout(const BenchOptions& o, BenchReport& report) {
+    const auto gen_start = Clock::now();
+    Terrain map = std::move(*makeProceduralMap(ProceduralMapOptions{}));
+    const double gen_ms = msSince(gen_start);
+    const WorldSpec spec = map.spec();
     malloc_trim(0);
+    const std::size_t rss_map = bench::residentBytes();
+    ServerThread srv(std::move(map), benchConfig());
+    const std::size_t rss_server = bench::residentBytes();
+    const std::size_t terrain_bytes_before =
+        srv.call([&] { return srv.authority().terrain().memoryUsage().total(); });
 
-    // ---------------- 1b, 2, 4: fan-out to full clients, bytes per op, memory ----------------
-    {
-        const auto gen_start = Clock::now();
-        Terrain map = std::move(*makeProceduralMap(ProceduralMapOptions{}));
-        const double gen_ms = msSince(gen_start);
-        const WorldSpec spec = map.spec();
-        malloc_trim(0);
-        const std::size_t rss_map = bench::residentBytes();
-        ServerThread srv(std::move(map), benchConfig());
-        const std::size_t rss_server = bench::residentBytes();
-        const std::size_t terrain_bytes_before =
-            srv.call([&] { return srv.authority().terrain().memoryUsage().total(); });
-
-        ClientPool pool(client_threads);
-        const std::uint16_t port = srv.port();
-        const auto connect_start = Clock::now();
-        std::size_t queued_peak_connect = 0;
-        for (int i = 0; i < clients; ++i)
-            pool.add(
-                port,
-                token(
-                    static_cast<std::uint64_t>(100 + i), i == 0 ? Role::kDeformer : Role::kViewer));
-        const bool joined = allJoined(srv, pool, queued_peak_connect);
-        const double connect_ms = msSince(connect_start);
-        if (!joined || !allSynced(srv, pool, 30.0)) {
-            std::fprintf(stderr, "net_bench: FAIL: not every client joined the default map\n");
-            failed = true;
-        }
-        std::vector<double> join_ms;
-        for (std::size_t i = 0; i < pool.size(); ++i)
-            join_ms.push_back(
-                static_cast<double>(pool[i].joined_ns.load() - pool[i].started_ns) * 1e-6);
-        const Summary joins = summarize(join_ms);
-        const std::size_t rss_clients = bench::residentBytes();
-        std::size_t replica_bytes = 0;
-        pool.forEach([&](Receiver& r) {
-            if (auto* c = dynamic_cast<BenchClient*>(&r); c && c->replica.ready())
-                replica_bytes += c->replica.terrain().memoryUsage().total();
-        });
-        const std::size_t snapshot_cache_bytes = srv.call([&] {
-            // the cached join snapshot the server holds (built on the first join)
-            return wire::buildSnapshotFrames(srv.authority().terrain(), srv.server().broadcastSeq())
-                .totalBytes();
-        });
-        std::printf(
-            "joined %d clients on %dx%d in %.0f ms (per client p50 %.0f ms, max %.0f ms)\n",
-            clients, spec.width, spec.height, connect_ms, joins.p50, joins.max);
-
-        // 1. windowed fan-out
-        FanoutResult fan = runDeform(
-            srv, pool, grenadeCraters(spec, ops, 1), static_cast<std::size_t>(window), 0.0, 120.0);
-        printLatency("full fan-out (windowed)", fan);
-        if (!fan.completed || !fan.check.all_match || fan.check.hash_mismatches != 0) {
-            std::fprintf(
-                stderr,
-                "net_bench: FAIL fan-out: %s; %d clients differ, %" PRIu64 " hash mismatches\n",
-                fan.failure.c_str(), fan.check.clients_differing, fan.check.hash_mismatches);
-            for (const auto& n : fan.check.notes)
-                std::fprintf(stderr, "  %s\n", n.c_str());
-            failed = true;
-        }
-        const std::size_t rss_after_ops = bench::residentBytes();
-        const std::size_t terrain_bytes_after =
-            srv.call([&] { return srv.authority().terrain().memoryUsage().total(); });
-
-        // paced run
-        FanoutResult paced;
-        if (paced_ops > 0) {
-            paced = runDeform(srv, pool, grenadeCraters(spec, paced_ops, 2), 0, paced_rate, 60.0);
-            printLatency("full fan-out (paced)", paced);
-            if (!paced.completed || !paced.check.all_match || paced.check.hash_mismatches != 0) {
-                std::fprintf(stderr, "net_bench: FAIL paced: %s\n", paced.failure.c_str());
-                failed = true;
-            }
-        }
-
-        Json f = fanoutJson(fan, pool.size(), static_cast<std::size_t>(window), 0.0);
-        {
-            Json m = Json::object();
-            m.set("size", std::to_string(spec.width) + "x" + std::to_string(spec.height));
-            m.set("spacing_m", spec.spacingMetres());
-            m.set("generate_ms", gen_ms);
-            f.set("map", std::move(m));
-            Json c = Json::object();
-            c.set("radius_m", "1-8").set("depth_m", "0.3-2").set("rim_ratio", 0.25);
-            f.set("craters", std::move(c));
-            Json j = Json::object();
-            j.set("all_clients_ms", connect_ms);
-            j.set("per_client_ms", toJson(joins));
-            j.set("server_queued_bytes_peak", static_cast<std::uint64_t>(queued_peak_connect));
-            f.set("initial_join", std::move(j));
-        }
-        root.set("fanout", std::move(f));
-        if (paced_ops > 0) {
-            Json p = fanoutJson(paced, pool.size(), 0, paced_rate);
-            p.set("duration_s", paced_seconds);
-            root.set("fanout_paced", std::move(p));
-        }
-        Json d = bytesJson(fan, &default_bytes);
-        d.set("map", "procedural 1025x1025, 1 m; craters R 1-8 m");
-        d.set(
-            "note", "OpApplied frames as received by one viewer: varint prefix + Envelope (seq, "
-                    "op, world hash)");
-        wire_bytes.set("default_1m", std::move(d));
-
-        memory.set("rss_start_bytes", static_cast<std::uint64_t>(rss_start));
-        memory.set("rss_after_map_bytes", static_cast<std::uint64_t>(rss_map));
-        memory.set("rss_server_only_bytes", static_cast<std::uint64_t>(rss_server));
-        memory.set("rss_with_clients_bytes", static_cast<std::uint64_t>(rss_clients));
-        memory.set("rss_after_fanout_bytes", static_cast<std::uint64_t>(rss_after_ops));
-        memory.set("rss_clients_delta_bytes", static_cast<std::uint64_t>(rss_clients - rss_server));
-        memory.set("clients", clients);
-        memory.set(
-            "rss_per_client_bytes",
-            static_cast<double>(rss_clients - rss_server) / static_cast<double>(clients));
-        memory.set("replicas_terrain_bytes", static_cast<std::uint64_t>(replica_bytes));
-        memory.set(
-            "server_terrain_bytes_before_ops", static_cast<std::uint64_t>(terrain_bytes_before));
-        memory.set(
-            "server_terrain_bytes_after_ops", static_cast<std::uint64_t>(terrain_bytes_after));
-        memory.set(
-            "server_join_snapshot_frames_bytes", static_cast<std::uint64_t>(snapshot_cache_bytes));
-        memory.set(
-            "server_queued_bytes_peak_join", static_cast<std::uint64_t>(queued_peak_connect));
-        memory.set("server_queued_bytes_peak_fanout", static_cast<std::uint64_t>(fan.queued_peak));
-        memory.set(
-            "note",
-            "server and clients share one process: rss_server_only is map + server before any "
-            "client; rss_clients_delta is the 64 replicas, their connections and the server's "
-            "sessions and snapshot cache together; replicas_terrain_bytes is Terrain::memoryUsage "
-            "summed over replicas");
-        std::printf(
-            "memory: RSS %.1f MiB server-only, %.1f MiB with %d clients (+%.2f MiB/client); "
-            "terrain %.1f MiB -> %.1f MiB after ops; replicas %.1f MiB total; queued peak "
-            "%.2f MiB (join) %.3f MiB (ops)\n",
-            mib(rss_server), mib(rss_clients), clients, mib(rss_clients - rss_server) / clients,
-            mib(terrain_bytes_before), mib(terrain_bytes_after), mib(replica_bytes),
-            mib(queued_peak_connect), mib(fan.queued_peak));
-        pool.clear();
-        srv.stop();
+    ClientPool pool(o.client_threads);
+    const std::uint16_t port = srv.port();
+    const auto connect_start = Clock::now();
+    std::size_t queued_peak_connect = 0;
+    for (int i = 0; i < o.clients; ++i)
+        pool.add(
+            port,
+            token(static_cast<std::uint64_t>(100 + i), i == 0 ? Role::kDeformer : Role::kViewer));
+    const bool joined = allJoined(srv, pool, queued_peak_connect);
+    const double connect_ms = msSince(connect_start);
+    if (!joined || !allSynced(srv, pool, 30.0)) {
+        std::fprintf(stderr, "net_bench: FAIL: not every client joined the default map\n");
+        report.failed = true;
     }
-    root.set("memory", std::move(memory));
+    std::vector<double> join_ms;
+    for (std::size_t i = 0; i < pool.size(); ++i)
+        join_ms.push_back(
+            static_cast<double>(pool[i].joined_ns.load() - pool[i].started_ns) * 1e-6);
+    const Summary joins = summarize(join_ms);
+    const std::size_t rss_clients = bench::residentBytes();
+    std::size_t replica_bytes = 0;
+    pool.forEach([&](Receiver& r) {
+        if (auto* c = dynamic_cast<BenchClient*>(&r); c && c->replica.ready())
+            replica_bytes += c->replica.terrain().memoryUsage().total();
+    });
+    const std::size_t snapshot_cache_bytes = srv.call([&] {
+        // the cached join snapshot the server holds (built on the first join)
+        return wire::buildSnapshotFrames(srv.authority().terrain(), srv.server().broadcastSeq())
+            .totalBytes();
+    });
+    std::printf(
+        "joined %d clients on %dx%d in %.0f ms (per client p50 %.0f ms, max %.0f ms)\n", o.clients,
+        spec.width, spec.height, connect_ms, joins.p50, joins.max);
 
-    // ---------------- 3: joins on SRTM (and its bytes per op) ----------------
+    // 1. windowed fan-out
+    FanoutResult fan = runDeform(
+        srv, pool, grenadeCraters(spec, o.ops, 1), static_cast<std::size_t>(o.window), 0.0, 120.0);
+    printLatency("full fan-out (windowed)", fan);
+    if (!fan.completed || !fan.check.all_match || fan.check.hash_mismatches != 0) {
+        std::fprintf(
+            stderr, "net_bench: FAIL fan-out: %s; %d clients differ, %" PRIu64 " hash mismatches\n",
+            fan.failure.c_str(), fan.check.clients_differing, fan.check.hash_mismatches);
+        for (const auto& n : fan.check.notes)
+            std::fprintf(stderr, "  %s\n", n.c_str());
+        report.failed = true;
+    }
+    const std::size_t rss_after_ops = bench::residentBytes();
+    const std::size_t terrain_bytes_after =
+        srv.call([&] { return srv.authority().terrain().memoryUsage().total(); });
+
+    // paced run
+    FanoutResult paced;
+    if (o.pacedOps() > 0) {
+        paced = runDeform(srv, pool, grenadeCraters(spec, o.pacedOps(), 2), 0, o.paced_rate, 60.0);
+        printLatency("full fan-out (paced)", paced);
+        if (!paced.completed || !paced.check.all_match || paced.check.hash_mismatches != 0) {
+            std::fprintf(stderr, "net_bench: FAIL paced: %s\n", paced.failure.c_str());
+            report.failed = true;
+        }
+    }
+
+    Json f = fanoutJson(fan, pool.size(), static_cast<std::size_t>(o.window), 0.0);
+    {
+        Json m = Json::object();
+        m.set("size", std::to_string(spec.width) + "x" + std::to_string(spec.height));
+        m.set("spacing_m", spec.spacingMetres());
+        m.set("generate_ms", gen_ms);
+        f.set("map", std::move(m));
+        Json c = Json::object();
+        c.set("radius_m", "1-8").set("depth_m", "0.3-2").set("rim_ratio", 0.25);
+        f.set("craters", std::move(c));
+        Json j = Json::object();
+        j.set("all_clients_ms", connect_ms);
+        j.set("per_client_ms", toJson(joins));
+        j.set("server_queued_bytes_peak", static_cast<std::uint64_t>(queued_peak_connect));
+        f.set("initial_join", std::move(j));
+    }
+    report.root.set("fanout", std::move(f));
+    if (o.pacedOps() > 0) {
+        Json p = fanoutJson(paced, pool.size(), 0, o.paced_rate);
+        p.set("duration_s", o.paced_seconds);
+        report.root.set("fanout_paced", std::move(p));
+    }
+    Json d = bytesJson(fan, &report.default_bytes);
+    d.set("map", "procedural 1025x1025, 1 m; craters R 1-8 m");
+    d.set(
+        "note", "OpApplied frames as received by one viewer: varint prefix + Envelope (seq, "
+                "op, world hash)");
+    report.wire_bytes.set("default_1m", std::move(d));
+
+    report.memory.set("rss_start_bytes", static_cast<std::uint64_t>(report.rss_start));
+    report.memory.set("rss_after_map_bytes", static_cast<std::uint64_t>(rss_map));
+    report.memory.set("rss_server_only_bytes", static_cast<std::uint64_t>(rss_server));
+    report.memory.set("rss_with_clients_bytes", static_cast<std::uint64_t>(rss_clients));
+    report.memory.set("rss_after_fanout_bytes", static_cast<std::uint64_t>(rss_after_ops));
+    report.memory.set(
+        "rss_clients_delta_bytes", static_cast<std::uint64_t>(rss_clients - rss_server));
+    report.memory.set("clients", o.clients);
+    report.memory.set(
+        "rss_per_client_bytes",
+        static_cast<double>(rss_clients - rss_server) / static_cast<double>(o.clients));
+    report.memory.set("replicas_terrain_bytes", static_cast<std::uint64_t>(replica_bytes));
+    report.memory.set(
+        "server_terrain_bytes_before_ops", static_cast<std::uint64_t>(terrain_bytes_before));
+    report.memory.set(
+        "server_terrain_bytes_after_ops", static_cast<std::uint64_t>(terrain_bytes_after));
+    report.memory.set(
+        "server_join_snapshot_frames_bytes", static_cast<std::uint64_t>(snapshot_cache_bytes));
+    report.memory.set(
+        "server_queued_bytes_peak_join", static_cast<std::uint64_t>(queued_peak_connect));
+    report.memory.set(
+        "server_queued_bytes_peak_fanout", static_cast<std::uint64_t>(fan.queued_peak));
+    report.memory.set(
+        "note",
+        "server and clients share one process: rss_server_only is map + server before any "
+        "client; rss_clients_delta is the 64 replicas, their connections and the server's "
+        "sessions and snapshot cache together; replicas_terrain_bytes is Terrain::memoryUsage "
+        "summed over replicas");
+    std::printf(
+        "memory: RSS %.1f MiB server-only, %.1f MiB with %d clients (+%.2f MiB/client); "
+        "terrain %.1f MiB -> %.1f MiB after ops; replicas %.1f MiB total; queued peak "
+        "%.2f MiB (join) %.3f MiB (ops)\n",
+        mib(rss_server), mib(rss_clients), o.clients, mib(rss_clients - rss_server) / o.clients,
+        mib(terrain_bytes_before), mib(terrain_bytes_after), mib(replica_bytes),
+        mib(queued_peak_connect), mib(fan.queued_peak));
+    pool.clear();
+    srv.stop();
+    report.root.set("memory", std::move(report.memory));
+}
+
+/// 3: joins on SRTM (and its bytes per op), and joins under load; 2 if the DEM cannot be read.
+int srtmJoins(const BenchOptions& o, BenchReport& report) {
     const std::filesystem::path dem_json =
-        std::filesystem::path(dem_dir) / "srtm_n44w072" / "srtm_n44w072.json";
+        std::filesystem::path(o.dem_dir) / "srtm_n44w072" / "srtm_n44w072.json";
     Json join = Json::object();
     Json srtm_fanout = Json::object();
     bool has_srtm_fanout = false;
-    Summary srtm_bytes;
-    double cold_ms = 0.0, warm_ms = 0.0, build_ms = 0.0, copy_ms = 0.0;
-    std::uint64_t snap_raw = 0, snap_wire = 0;
+    double copy_ms = 0.0;
     if (!std::filesystem::exists(dem_json)) {
         const std::string why =
             "skipped: " + dem_json.string() + " not found (../shared/data/dem absent)";
@@ -1260,16 +1279,16 @@ int main(int argc, char** argv) {
         const WorldSpec spec = dem->terrain.spec();
         CraterSeries series;
         series.seed = 7;
-        series.count = join_craters;
+        series.count = o.join_craters;
         series.min_radius = 50.0;
         series.max_radius = 400.0;
         const std::vector<OpRequest> history = randomCraters(spec, series);
         std::size_t history_refused = 0;
         double history_ms = 0.0;
         server::ServerConfig config = benchConfig();
-        // the join cache at most a second of the loaded run's ops old: each join a second there
+        // the join cache at most a second of the loaded run's o.ops old: each join a second there
         // needs a snapshot of its own (or one rebuilt ahead of it)
-        config.snapshot_cache_max_lag = static_cast<std::uint64_t>(load_rate);
+        config.snapshot_cache_max_lag = static_cast<std::uint64_t>(o.load_rate);
         ServerThread srv(std::move(dem->terrain), config, [&](server::Authority& a) {
             const auto start = Clock::now();
             for (const OpRequest& r : history)
@@ -1294,7 +1313,7 @@ int main(int argc, char** argv) {
                 builds.push_back(msSince(start));
                 return 0;
             });
-        build_ms = summarize(builds).p50;
+        report.build_ms = summarize(builds).p50;
         // what the io thread itself pays for a build since snapshots are built on their own
         // thread: a copy of the terrain (freed on that thread), median of 3
         std::vector<double> copies;
@@ -1308,8 +1327,8 @@ int main(int argc, char** argv) {
             });
         }
         copy_ms = summarize(copies).p50;
-        snap_raw = frames.raw_bytes;
-        snap_wire = frames.totalBytes();
+        report.snap_raw = frames.raw_bytes;
+        report.snap_wire = frames.totalBytes();
 
         ClientPool pool(1);
         const std::uint16_t port = srv.port();
@@ -1327,17 +1346,17 @@ int main(int argc, char** argv) {
             return ok && verified;
         };
         const std::uint64_t built_before = srv.stats().snapshots_built;
-        bool joins_ok = joinOnce(1, Role::kDeformer, &cold_ms);
+        bool joins_ok = joinOnce(1, Role::kDeformer, &report.cold_ms);
         const std::uint64_t built_cold = srv.stats().snapshots_built;
         std::vector<double> warm;
-        for (int i = 0; i < warm_joins; ++i) {
+        for (int i = 0; i < o.warm_joins; ++i) {
             double ms = 0.0;
             joins_ok = joinOnce(static_cast<std::uint64_t>(2 + i), Role::kViewer, &ms) && joins_ok;
             warm.push_back(ms);
         }
         const std::uint64_t built_warm = srv.stats().snapshots_built;
         const Summary warm_s = summarize(warm);
-        warm_ms = warm_s.p50;
+        report.warm_ms = warm_s.p50;
         std::uint64_t client_snapshot_bytes = 0;
         pool.threadOf(0).call([&] {
             client_snapshot_bytes = pool.client(0).connection->stats().snapshot_bytes;
@@ -1349,15 +1368,16 @@ int main(int argc, char** argv) {
                 "net_bench: FAIL: an SRTM join did not reach seq %" PRIu64
                 " with the server hash\n",
                 seq);
-            failed = true;
+            report.failed = true;
         }
         std::printf(
             "srtm %dx%d, %.1f m, %zu craters (%zu refused, %.0f ms), %zu patches: snapshot "
             "%.1f MB raw -> %.1f MB wire, build %.0f ms (io thread's share: a %.0f ms copy); join "
             "cold %.0f ms, warm p50 %.0f ms\n",
             spec.width, spec.height, spec.spacingMetres(), history.size(), history_refused,
-            history_ms, patches, static_cast<double>(snap_raw) * 1e-6,
-            static_cast<double>(snap_wire) * 1e-6, build_ms, copy_ms, cold_ms, warm_ms);
+            history_ms, patches, static_cast<double>(report.snap_raw) * 1e-6,
+            static_cast<double>(report.snap_wire) * 1e-6, report.build_ms, copy_ms, report.cold_ms,
+            report.warm_ms);
 
         join.set("map", "srtm_n44w072");
         join.set("size", std::to_string(spec.width) + "x" + std::to_string(spec.height));
@@ -1369,16 +1389,16 @@ int main(int argc, char** argv) {
         join.set("seq", seq);
         join.set("patches", static_cast<std::uint64_t>(patches));
         join.set("terrain_bytes", static_cast<std::uint64_t>(terrain_bytes));
-        join.set("snapshot_raw_bytes", snap_raw);
+        join.set("snapshot_raw_bytes", report.snap_raw);
         join.set("snapshot_compressed_bytes", frames.compressed_bytes);
-        join.set("snapshot_wire_bytes", snap_wire);
+        join.set("snapshot_wire_bytes", report.snap_wire);
         join.set("snapshot_frames", static_cast<std::uint64_t>(frames.frames.size()));
         join.set("client_snapshot_bytes_received", client_snapshot_bytes);
-        join.set("snapshot_build_ms_median_of_3", build_ms);
+        join.set("snapshot_build_ms_median_of_3", report.build_ms);
         join.set("terrain_copy_ms_median_of_3", copy_ms);
-        join.set("join_cold_ms", cold_ms);
+        join.set("join_cold_ms", report.cold_ms);
         join.set("join_warm_ms", toJson(warm_s));
-        join.set("warm_joins", warm_joins);
+        join.set("warm_joins", o.warm_joins);
         join.set("snapshots_built_cold", built_cold - built_before);
         join.set("snapshots_built_warm", built_warm - built_cold);
         join.set("joins_verified", joins_ok);
@@ -1388,7 +1408,7 @@ int main(int argc, char** argv) {
             "with its hash (loopback; client decode + validation + rehash included); "
             "cold builds the server's snapshot cache, warm reuses it");
 
-        // SRTM bytes per op: the joined clients watch a short windowed run
+        // SRTM bytes per op: the joined o.clients watch a short windowed run
         if (joins_ok) {
             FanoutResult s = runDeform(
                 srv, pool,
@@ -1397,33 +1417,33 @@ int main(int argc, char** argv) {
                     [&] {
                         CraterSeries c = series;
                         c.seed = 8;
-                        c.count = srtm_ops;
+                        c.count = o.srtm_ops;
                         return c;
                     }()),
-                static_cast<std::size_t>(window), 0.0, 120.0);
+                static_cast<std::size_t>(o.window), 0.0, 120.0);
             printLatency("srtm fan-out (windowed)", s);
             if (!s.completed || !s.check.all_match || s.check.hash_mismatches != 0) {
                 std::fprintf(stderr, "net_bench: FAIL srtm fan-out: %s\n", s.failure.c_str());
-                failed = true;
+                report.failed = true;
             }
-            Json b = bytesJson(s, &srtm_bytes);
+            Json b = bytesJson(s, &report.srtm_bytes);
             b.set("map", "srtm_n44w072 1201x1201, 66 m; craters R 50-400 m");
-            wire_bytes.set("srtm_66m", std::move(b));
-            srtm_fanout = fanoutJson(s, pool.size(), static_cast<std::size_t>(window), 0.0);
+            report.wire_bytes.set("srtm_66m", std::move(b));
+            srtm_fanout = fanoutJson(s, pool.size(), static_cast<std::size_t>(o.window), 0.0);
             has_srtm_fanout = true;
         }
         // joins under load: a paced run alone, then the same with a fresh viewer joining by
         // snapshot every second; what a join costs every other session (request -> applied on
-        // all of the pool's clients)
+        // all of the pool's o.clients)
         if (joins_ok) {
             const auto loadOps = [&](std::uint64_t seed) {
                 CraterSeries c = series;
                 c.seed = seed;
-                c.count = static_cast<int>(load_rate * load_seconds + 0.5);
+                c.count = static_cast<int>(o.load_rate * o.load_seconds + 0.5);
                 return randomCraters(spec, c);
             };
             const FanoutResult quiet = runDeform(
-                srv, pool, loadOps(9), static_cast<std::size_t>(window), load_rate, 120.0);
+                srv, pool, loadOps(9), static_cast<std::size_t>(o.window), o.load_rate, 120.0);
             std::atomic<bool> stop_joins{false};
             std::vector<double> join_times;
             std::thread joiner([&] {
@@ -1434,7 +1454,7 @@ int main(int argc, char** argv) {
                 }
             });
             const FanoutResult loaded = runDeform(
-                srv, pool, loadOps(10), static_cast<std::size_t>(window), load_rate, 120.0);
+                srv, pool, loadOps(10), static_cast<std::size_t>(o.window), o.load_rate, 120.0);
             stop_joins = true;
             joiner.join();
             printLatency("srtm paced, no joins", quiet);
@@ -1448,11 +1468,11 @@ int main(int argc, char** argv) {
                 if (!r->completed || !r->check.all_match || r->check.hash_mismatches != 0) {
                     std::fprintf(
                         stderr, "net_bench: FAIL srtm joins under load: %s\n", r->failure.c_str());
-                    failed = true;
+                    report.failed = true;
                 }
             Json load = Json::object();
-            load.set("rate_per_second", load_rate);
-            load.set("seconds", load_seconds);
+            load.set("rate_per_second", o.load_rate);
+            load.set("seconds", o.load_seconds);
             load.set("clients", static_cast<std::uint64_t>(pool.size()));
             load.set("no_joins_latency_ms", toJson(quiet.latency_ms));
             load.set("joins_latency_ms", toJson(loaded.latency_ms));
@@ -1469,38 +1489,60 @@ int main(int argc, char** argv) {
         pool.clear();
         srv.stop();
     }
-    root.set("wire_bytes_per_op", std::move(wire_bytes));
-    root.set("join_srtm", std::move(join));
+    report.root.set("wire_bytes_per_op", std::move(report.wire_bytes));
+    report.root.set("join_srtm", std::move(join));
     if (has_srtm_fanout)
-        root.set("srtm_fanout", std::move(srtm_fanout));
-    root.set("total_seconds", msSince(bench_start) * 1e-3);
-    root.set("ok", !failed);
+        report.root.set("srtm_fanout", std::move(srtm_fanout));
+    return 0;
+}
+
+/// The closing table and the JSON file; the exit code.
+int writeReport(const BenchOptions& o, BenchReport& report) {
+    report.root.set("total_seconds", msSince(report.start) * 1e-3);
+    report.root.set("ok", !report.failed);
 
     std::printf("\n%-34s %s\n", "what", "value");
     std::printf(
-        "%-34s %.0f B median (min %.0f, max %.0f)\n", "wire bytes/op, 1 m map", default_bytes.p50,
-        default_bytes.min, default_bytes.max);
-    if (srtm_bytes.n)
+        "%-34s %.0f B median (min %.0f, max %.0f)\n", "wire bytes/op, 1 m map",
+        report.default_bytes.p50, report.default_bytes.min, report.default_bytes.max);
+    if (report.srtm_bytes.n)
         std::printf(
-            "%-34s %.0f B median (min %.0f, max %.0f)\n", "wire bytes/op, srtm", srtm_bytes.p50,
-            srtm_bytes.min, srtm_bytes.max);
-    if (snap_raw)
+            "%-34s %.0f B median (min %.0f, max %.0f)\n", "wire bytes/op, srtm",
+            report.srtm_bytes.p50, report.srtm_bytes.min, report.srtm_bytes.max);
+    if (report.snap_raw)
         std::printf(
             "%-34s %.1f MB raw, %.1f MB wire, build %.0f ms, join cold %.0f / warm %.0f ms\n",
-            "srtm snapshot + join", static_cast<double>(snap_raw) * 1e-6,
-            static_cast<double>(snap_wire) * 1e-6, build_ms, cold_ms, warm_ms);
-    std::printf("%-34s %.1f s\n", "total", msSince(bench_start) * 1e-3);
+            "srtm snapshot + join", static_cast<double>(report.snap_raw) * 1e-6,
+            static_cast<double>(report.snap_wire) * 1e-6, report.build_ms, report.cold_ms,
+            report.warm_ms);
+    std::printf("%-34s %.1f s\n", "total", msSince(report.start) * 1e-3);
 
     std::error_code ec;
-    const std::filesystem::path out(out_path);
+    const std::filesystem::path out(o.out_path);
     if (out.has_parent_path())
         std::filesystem::create_directories(out.parent_path(), ec);
-    std::ofstream file(out_path);
-    file << root.dump(2) << "\n";
+    std::ofstream file(o.out_path);
+    file << report.root.dump(2) << "\n";
     if (!file) {
-        std::fprintf(stderr, "net_bench: cannot write %s\n", out_path.c_str());
+        std::fprintf(stderr, "net_bench: cannot write %s\n", o.out_path.c_str());
         return 2;
     }
-    std::printf("wrote %s%s\n", out_path.c_str(), failed ? " (with FAILURES)" : "");
-    return failed ? 1 : 0;
+    std::printf("wrote %s%s\n", o.out_path.c_str(), report.failed ? " (with FAILURES)" : "");
+    return report.failed ? 1 : 0;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+    BenchOptions o;
+    if (const std::optional<int> stop = parseOptions(argc, argv, o))
+        return *stop;
+    BenchReport report;
+    startReport(o, report);
+    lightFanout(o, report);
+    journaledFanout(o, report);
+    fullFanout(o, report);
+    if (const int code = srtmJoins(o, report); code != 0)
+        return code;
+    return writeReport(o, report);
 }
