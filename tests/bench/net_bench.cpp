@@ -1032,7 +1032,6 @@ void lightFanout(const BenchOptions& o, BenchReport& report) {
     }
     pool.clear();
     srv.stop();
-    malloc_trim(0);
 }
 
 /// 1c: the same light fan-out with the journal on (group commit), each durability.
@@ -1109,7 +1108,6 @@ void journaledFanout(const BenchOptions& o, BenchReport& report) {
         std::filesystem::remove_all(dir);
     }
     report.root.set("fanout_light_journaled", std::move(durability_json));
-    malloc_trim(0);
 }
 
 /// 1b, 2, 4: fan-out to full clients, bytes per op, memory.
@@ -1286,7 +1284,7 @@ int srtmJoins(const BenchOptions& o, BenchReport& report) {
         std::size_t history_refused = 0;
         double history_ms = 0.0;
         server::ServerConfig config = benchConfig();
-        // the join cache at most a second of the loaded run's o.ops old: each join a second there
+        // the join cache at most a second of the loaded run's ops old: each join a second there
         // needs a snapshot of its own (or one rebuilt ahead of it)
         config.snapshot_cache_max_lag = static_cast<std::uint64_t>(o.load_rate);
         ServerThread srv(std::move(dem->terrain), config, [&](server::Authority& a) {
@@ -1408,7 +1406,7 @@ int srtmJoins(const BenchOptions& o, BenchReport& report) {
             "with its hash (loopback; client decode + validation + rehash included); "
             "cold builds the server's snapshot cache, warm reuses it");
 
-        // SRTM bytes per op: the joined o.clients watch a short windowed run
+        // SRTM bytes per op: the joined clients watch a short windowed run
         if (joins_ok) {
             FanoutResult s = runDeform(
                 srv, pool,
@@ -1434,7 +1432,7 @@ int srtmJoins(const BenchOptions& o, BenchReport& report) {
         }
         // joins under load: a paced run alone, then the same with a fresh viewer joining by
         // snapshot every second; what a join costs every other session (request -> applied on
-        // all of the pool's o.clients)
+        // all of the pool's clients)
         if (joins_ok) {
             const auto loadOps = [&](std::uint64_t seed) {
                 CraterSeries c = series;
@@ -1539,8 +1537,11 @@ int main(int argc, char** argv) {
         return *stop;
     BenchReport report;
     startReport(o, report);
+    // each phase's server and clients are gone before the next: their memory goes back first
     lightFanout(o, report);
+    malloc_trim(0);
     journaledFanout(o, report);
+    malloc_trim(0);
     fullFanout(o, report);
     if (const int code = srtmJoins(o, report); code != 0)
         return code;

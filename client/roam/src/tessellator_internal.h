@@ -20,7 +20,7 @@ inline constexpr double kInfinity = std::numeric_limits<double>::infinity();
 /// Local position (x and y) of a cell's centre diamond, whose triangles are its base triangles.
 inline constexpr std::int32_t kCentreLocal = kLatticePerCell / 2;
 
-// How split/merge follows a binding triangle cap (Tessellator::followCap): a rebuild fills this
+// How split/merge follows a binding triangle cap (SplitMerge::followCap): a rebuild fills this
 // share of the cap; the threshold rises by kCapStepUp (up to kCapStepMax when many splits were
 // refused) when the cap refuses a split, and falls by kCapStepDown while the mesh is under
 // kCapLow of the cap.

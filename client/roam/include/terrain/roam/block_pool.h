@@ -135,7 +135,7 @@ class BlockPool {
     void trim(Mover& mover);
     static constexpr std::size_t kTrimMinChunks = 256;
     static constexpr std::size_t kTrimMoves = 256;
-    /// Chunks moved since clear().
+    /// Chunks moved since construction (clear() keeps the count).
     std::int64_t movedCount() const { return moved_count_; }
 
     struct Memory {

@@ -62,7 +62,8 @@ class SplitMerge {
     void resizeIds(std::size_t eager, const std::array<std::size_t, kGrains>& pooled) {
         heap_.resizeIds(eager, pooled);
     }
-    /// A new world: no candidate, no id.
+    /// A new world: the heap forgets every id and its memory (clearCandidates() empties the
+    /// lists kept across frames).
     void forgetIds() { heap_.reset(); }
 
     // candidates, as the mesh splits and merges

@@ -80,6 +80,9 @@ namespace terrain::roam {
 class Tessellator {
   public:
     Tessellator(const Terrain& terrain, const TessellatorOptions& options);
+    /// Its parts refer to each other (the policy to the diamond space): not copied or moved.
+    Tessellator(const Tessellator&) = delete;
+    Tessellator& operator=(const Tessellator&) = delete;
 
     /// Re-tessellates for the camera and returns what the frame did.
     FrameStats update(const Camera& camera);
