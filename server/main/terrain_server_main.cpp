@@ -238,11 +238,16 @@ void restoreRetainedLog(
                 static_cast<unsigned long long>(authority.log().resumableFrom())));
 }
 
+server::TransportConfig transportConfig(const Options& o) {
+    server::TransportConfig transport;
+    transport.bind_address = o.bind;
+    transport.port = static_cast<std::uint16_t>(o.port);
+    transport.metrics_port = o.metrics_port;
+    return transport;
+}
+
 server::ServerConfig serverConfig(const Options& o, std::vector<std::uint8_t> secret) {
     server::ServerConfig config;
-    config.bind_address = o.bind;
-    config.port = static_cast<std::uint16_t>(o.port);
-    config.metrics_port = o.metrics_port;
     config.max_sessions = o.max_sessions;
     config.max_pending_sessions = o.max_pending;
     config.max_pending_per_address = o.max_pending_per_address;
@@ -393,7 +398,7 @@ int serve(const Options& o) {
         recovering->stop();
     asio::io_context io(1);
     server::Server srv(
-        io, serverConfig(o, std::move(*secret)), authority,
+        io, transportConfig(o), serverConfig(o, std::move(*secret)), authority,
         world.journal ? &*world.journal : nullptr);
     srv.setLog(log);
     srv.setRecoveryReport(world.recovery);

@@ -50,8 +50,9 @@ TEST(ServerMetrics, ProbesAnswerAndFiguresFollowRealTraffic) {
     server::ServerConfig config;
     config.deform_rate_per_second = 1e6;
     config.deform_burst = 1e6;
-    config.metrics_port = 0;
-    TestServer srv(smallMap(129), config);
+    server::TransportConfig transport;
+    transport.metrics_port = 0;
+    TestServer srv(smallMap(129), config, nullptr, 0, transport);
     const std::uint16_t port = srv.call([&] { return srv.server().metricsPort(); });
     ASSERT_NE(port, 0);
     EXPECT_EQ(statusOf(get(port, "/livez")), 200);

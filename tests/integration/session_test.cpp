@@ -201,9 +201,10 @@ TEST(Session, AClientThatShipsTheMapJoinsByAGenesisDelta) {
 TEST(Session, ReaderThatStopsReadingIsResyncedThenDisconnectedWithoutHurtingOthers) {
     server::ServerConfig config = fastConfig();
     config.outbound_budget_bytes = 8 << 10;
-    config.socket_send_buffer_bytes = 8 << 10;
     config.snapshot_cache_max_lag = 1u << 30;
-    TestServer srv(smallMap(129), config);
+    server::TransportConfig transport;
+    transport.socket_send_buffer_bytes = 8 << 10;
+    TestServer srv(smallMap(129), config, nullptr, 0, transport);
     RawPeer stalled(srv.port(), 4096);
     stalled.sendHello(token(9, Role::kViewer)); // and then never reads
     asio::io_context io;
@@ -478,9 +479,10 @@ TEST(Session, HeightAndRayQueriesMatchTheReplica) {
 TEST(Session, PeerThatAsksButNeverReadsIsCutOffAtItsBudget) {
     server::ServerConfig config = fastConfig();
     config.outbound_budget_bytes = 64 << 10;
-    config.socket_send_buffer_bytes = 8 << 10;
     config.close_linger_seconds = 0.2;
-    TestServer srv(smallMap(1025), config);
+    server::TransportConfig transport;
+    transport.socket_send_buffer_bytes = 8 << 10;
+    TestServer srv(smallMap(1025), config, nullptr, 0, transport);
     RawPeer greedy(srv.port(), 4096);
     greedy.sendHello(token(9, Role::kViewer));
     pb::Envelope repair;

@@ -37,9 +37,11 @@ class TestServer {
         Terrain terrain,
         server::ServerConfig config = {},
         journal::Journal* journal = nullptr,
-        std::uint64_t seq = 0) {
+        std::uint64_t seq = 0,
+        server::TransportConfig transport = {}) {
         config.token_secret = testSecret();
         server::ServerThreadOptions options;
+        options.transport = std::move(transport);
         options.config = std::move(config);
         options.seq = seq;
         options.journal = journal;

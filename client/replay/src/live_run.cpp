@@ -55,9 +55,9 @@ Result<LiveRunResult> runLive(const LiveRunInput& input, const LiveRunOptions& o
     server_options.seq = input.base_seq;
     server_options.journal = input.journal;
     server_options.log = std::make_shared<QuietLog>();
+    server_options.transport.bind_address = "127.0.0.1";
+    server_options.transport.port = 0;
     server::ServerConfig& config = server_options.config;
-    config.bind_address = "127.0.0.1";
-    config.port = 0;
     config.token_secret = server::randomTokenSecret();
     config.deform_rate_per_second = 1e9; // the source's pace is not ours to police
     config.deform_burst = 1e9;

@@ -17,8 +17,8 @@ InProcessServer::InProcessServer(std::unique_ptr<Impl> impl) : impl_(std::move(i
 
 Result<std::unique_ptr<InProcessServer>> InProcessServer::start(Terrain terrain) {
     server::ServerThreadOptions options;
-    options.config.bind_address = "127.0.0.1";
-    options.config.port = 0;
+    options.transport.bind_address = "127.0.0.1";
+    options.transport.port = 0;
     options.config.token_secret = server::randomTokenSecret();
     const std::vector<std::uint8_t> secret = options.config.token_secret;
     auto thread = server::ServerThread::start(std::move(terrain), std::move(options));

@@ -12,7 +12,11 @@
 namespace terrain::server {
 
 Server::Server(
-    asio::io_context& io, ServerConfig config, Authority& authority, journal::Journal* journal)
+    asio::io_context& io,
+    TransportConfig transport,
+    ServerConfig config,
+    Authority& authority,
+    journal::Journal* journal)
     : io_(io), acceptor_(io), log_(std::make_shared<LogWriter>()),
       metrics_(std::make_unique<ServerMetrics>()),
       status_http_(std::make_unique<StatusHttp>(
@@ -24,8 +28,8 @@ Server::Server(
           config.before_snapshot_build,
           WorkerThread::Options{.trim_after_each = true, .nice = 10})),
       commit_worker_(std::make_unique<WorkerThread>(io, nullptr, WorkerThread::Options{})),
-      hub_(*this, std::move(config), authority, journal), shutdown_timer_(io),
-      accept_retry_timer_(io) {
+      transport_(std::move(transport)), hub_(*this, std::move(config), authority, journal),
+      shutdown_timer_(io), accept_retry_timer_(io) {
     hub_.on_broadcast = [this](std::uint64_t seq) {
         if (on_broadcast)
             on_broadcast(seq);
@@ -35,13 +39,12 @@ Server::Server(
 Server::~Server() = default;
 
 Status Server::start() {
-    const ServerConfig& config = hub_.config();
-    if (Status s = listenOn(acceptor_, config.bind_address, config.port, "listen"); !s)
+    if (Status s = listenOn(acceptor_, transport_.bind_address, transport_.port, "listen"); !s)
         return s;
     port_ = acceptor_.local_endpoint().port();
-    if (config.metrics_port >= 0)
+    if (transport_.metrics_port >= 0)
         if (Status s = status_http_->listen(
-                config.bind_address, static_cast<std::uint16_t>(config.metrics_port));
+                transport_.bind_address, static_cast<std::uint16_t>(transport_.metrics_port));
             !s)
             return s;
     accept();
@@ -86,7 +89,7 @@ void Server::accept() {
             scheduleAccept();
             return;
         }
-        std::make_shared<Session>(hub_, std::move(socket), hub_.config().socket_send_buffer_bytes)
+        std::make_shared<Session>(hub_, std::move(socket), transport_.socket_send_buffer_bytes)
             ->start();
         accept();
     });

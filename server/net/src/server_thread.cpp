@@ -36,8 +36,8 @@ ServerThread::start(Terrain terrain, ServerThreadOptions options) {
         options.prepare(*impl->authority);
     impl->linger_seconds = options.config.close_linger_seconds;
     // built and bound before the thread runs the loop, so nothing races with it
-    impl->server =
-        std::make_unique<Server>(impl->io, options.config, *impl->authority, options.journal);
+    impl->server = std::make_unique<Server>(
+        impl->io, options.transport, options.config, *impl->authority, options.journal);
     if (options.log)
         impl->server->setLog(options.log);
     if (Status s = impl->server->start(); !s)

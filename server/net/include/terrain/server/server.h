@@ -8,6 +8,7 @@
 #include <terrain/server/authority.h>
 #include <terrain/server/log_writer.h>
 #include <terrain/server/server_hub.h>
+#include <terrain/server/transport_config.h>
 #include <terrain/wire/codec.h>
 #include <terrain/wire/snapshot_stream.h>
 
@@ -37,9 +38,14 @@ struct RecoveryReport {
 
 class Server : private HubHost {
   public:
-    /// `journal` may be null (tests, benchmarks): ops are then acknowledged without durability.
+    /// Listens as `transport` says and runs the protocol as `config` says. `journal` may be null
+    /// (tests, benchmarks): ops are then acknowledged without durability.
     Server(
-        asio::io_context& io, ServerConfig config, Authority& authority, journal::Journal* journal);
+        asio::io_context& io,
+        TransportConfig transport,
+        ServerConfig config,
+        Authority& authority,
+        journal::Journal* journal);
     ~Server() override;
     Server(const Server&) = delete;
     Server& operator=(const Server&) = delete;
@@ -47,7 +53,7 @@ class Server : private HubHost {
     /// Binds and starts accepting. Errors: kIo naming the address and the OS error.
     Status start();
     std::uint16_t port() const { return port_; }
-    /// The probes' and metrics' HTTP port (ServerConfig::metrics_port), 0 when off.
+    /// The probes' and metrics' HTTP port (TransportConfig::metrics_port), 0 when off.
     std::uint16_t metricsPort() const;
 
     /// Drains: stops accepting, commits pending ops, writes a journal snapshot, says goodbye to
@@ -101,6 +107,7 @@ class Server : private HubHost {
     // the workers outlive the hub: a job in progress holds none of its state
     std::unique_ptr<WorkerThread> snapshot_worker_;
     std::unique_ptr<WorkerThread> commit_worker_;
+    TransportConfig transport_;
     ServerHub hub_;
     asio::steady_timer shutdown_timer_;
     asio::steady_timer accept_retry_timer_;

@@ -20,6 +20,7 @@
 namespace terrain::server {
 
 struct ServerThreadOptions {
+    TransportConfig transport; ///< 127.0.0.1, an ephemeral port, no metrics unless set
     ServerConfig config;
     std::uint64_t seq = 0;               ///< the terrain's seq (a recovered world's)
     journal::Journal* journal = nullptr; ///< null: ops are acknowledged without durability

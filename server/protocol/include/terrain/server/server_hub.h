@@ -25,12 +25,9 @@ namespace terrain::server {
 class SessionLink;
 class SessionMachine;
 
+/// The protocol's settings: limits, rates, budgets, the journal's rules. Where the server
+/// listens is its transport's (server/net's TransportConfig).
 struct ServerConfig {
-    std::string bind_address = "127.0.0.1";
-    std::uint16_t port = 0; ///< 0: an ephemeral port (tests); see Server::port()
-    /// HTTP for probes and scrapes on bind_address (GET /metrics, /livez, /readyz): -1 off, 0 an
-    /// ephemeral port (Server::metricsPort()).
-    int metrics_port = -1;
     /// Inbound frame limit: clients send small requests only.
     std::size_t max_inbound_frame_bytes = 64 << 10;
     /// Per-session backlog of ops and replies; over it the session is resynced by snapshot, and
@@ -41,8 +38,6 @@ struct ServerConfig {
     /// so that idle sockets never take a player's place (a health probe needs only one of them).
     std::size_t max_pending_sessions = 256;
     std::size_t max_pending_per_address = 32;
-    /// SO_SNDBUF per session (0: the OS default). Small values bound kernel memory per client.
-    int socket_send_buffer_bytes = 0;
     std::size_t op_log_capacity = 8192;
     double deform_rate_per_second = 30.0;
     double deform_burst = 60.0;
