@@ -44,6 +44,7 @@
 #include <deque>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -94,10 +95,8 @@ roam::Camera flightCamera(
     return c;
 }
 
-} // namespace
-
-int main(int argc, char** argv) {
-    CLI::App app{"client_battle_bench: a battle's ops on a client replica and tessellator"};
+/// The command line.
+struct Settings {
     int shots = 2000;
     int burst = 20;
     int burst_every = 100;
@@ -115,155 +114,175 @@ int main(int argc, char** argv) {
     bool render = false;
     double frame_target_ms = 0.0;
     ProceduralMapOptions map;
-    BattleOptions o;
+    BattleOptions battle;
     std::string out;
-    app.add_option("--shots", shots, "battle shots (the ops the client receives)")
+};
+
+/// The command line into `s`; an exit code when the program should stop (help, a bad option).
+std::optional<int> parseSettings(int argc, char** argv, Settings& s) {
+    CLI::App app{"client_battle_bench: a battle's ops on a client replica and tessellator"};
+    app.add_option("--shots", s.shots, "battle shots (the ops the client receives)")
         ->check(CLI::PositiveNumber);
-    app.add_option("--burst", burst, "ops arriving in one frame every --burst-every frames")
+    app.add_option("--burst", s.burst, "ops arriving in one frame every --burst-every frames")
         ->check(CLI::PositiveNumber);
-    app.add_option("--burst-every", burst_every, "frames between bursts")
+    app.add_option("--burst-every", s.burst_every, "frames between bursts")
         ->check(CLI::PositiveNumber);
-    app.add_option("--tau", tau, "screen-error threshold, pixels")->check(CLI::PositiveNumber);
-    app.add_option("--max-triangles", max_triangles, "the tessellator's triangle cap")
+    app.add_option("--tau", s.tau, "screen-error threshold, pixels")->check(CLI::PositiveNumber);
+    app.add_option("--max-triangles", s.max_triangles, "the tessellator's triangle cap")
         ->check(CLI::PositiveNumber);
-    app.add_option("--max-blocks", max_blocks, "detail blocks resident at once (the pool)")
+    app.add_option("--max-blocks", s.max_blocks, "detail blocks resident at once (the pool)")
         ->check(CLI::PositiveNumber);
     app.add_option(
-           "--ops-per-frame", pacing.ops_per_frame,
+           "--ops-per-frame", s.pacing.ops_per_frame,
            "ops applied per frame at least, as the bot and the viewer do (0: as they arrive)")
         ->check(CLI::NonNegativeNumber);
-    app.add_option("--work-budget", work_budget, "splits + merges per frame")
+    app.add_option("--work-budget", s.work_budget, "splits + merges per frame")
         ->check(CLI::PositiveNumber);
     app.add_option(
-           "--stale-budget", stale_budget, "stale detail blocks re-bounded per frame (0: all)")
+           "--stale-budget", s.stale_budget, "stale detail blocks re-bounded per frame (0: all)")
         ->check(CLI::NonNegativeNumber);
-    app.add_option("--width", width, "viewport width")->check(CLI::Range(64, 8192));
-    app.add_option("--height", height, "viewport height")->check(CLI::Range(64, 8192));
-    app.add_option("--flight", flight, "hover | cross")->check(CLI::IsMember({"hover", "cross"}));
-    app.add_option("--map-size", map.width, "procedural map size in vertices")
+    app.add_option("--width", s.width, "viewport width")->check(CLI::Range(64, 8192));
+    app.add_option("--height", s.height, "viewport height")->check(CLI::Range(64, 8192));
+    app.add_option("--flight", s.flight, "hover | cross")->check(CLI::IsMember({"hover", "cross"}));
+    app.add_option("--map-size", s.map.width, "procedural map size in vertices")
         ->check(CLI::Range(65, 8193));
-    app.add_option("--seed", o.seed, "battle seed");
-    app.add_option("--join-after", join_after, "shots before the client joins (a late joiner)")
+    app.add_option("--seed", s.battle.seed, "battle seed");
+    app.add_option("--join-after", s.join_after, "shots before the client joins (a late joiner)")
         ->check(CLI::NonNegativeNumber);
-    app.add_option("--frames", min_frames, "frames to fly at least (after the ops run out)")
+    app.add_option("--frames", s.min_frames, "frames to fly at least (after the ops run out)")
         ->check(CLI::NonNegativeNumber);
-    app.add_flag("--render", render, "draw every frame offscreen (OSMesa)");
+    app.add_flag("--render", s.render, "draw every frame offscreen (OSMesa)");
     app.add_option(
-           "--frame-ms", frame_target_ms,
+           "--frame-ms", s.frame_target_ms,
            "frame time the triangle cap is steered to hold, as the bot does (0: off)")
         ->check(CLI::NonNegativeNumber);
-    app.add_option("--out", out, "JSON report");
-    CLI11_PARSE(app, argc, argv);
+    app.add_option("--out", s.out, "JSON report");
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
+    }
+    s.map.height = s.map.width;
+    return std::nullopt;
+}
 
-    map.height = map.width;
-    auto made_map = makeProceduralMap(map);
-    auto held = std::make_unique<Terrain>(std::move(*made_map));
-    Terrain& authority = *held;
-    const WorldSpec& spec = authority.spec();
-    o.zone_x = spec.extentX() / 2;
-    o.zone_y = spec.extentY() / 2;
-    std::vector<std::uint8_t> snapshot;
-    if (join_after == 0)
-        snapshot = encodeSnapshot(authority, 0);
-
-    // the authority's side, untimed: the ops and the hash each produced
+/// The authority's side, untimed: the ops the client receives with the hash each produced,
+/// the snapshot it joins by (after --join-after shots), and the world's last hash.
+struct Battle {
     std::vector<SentOp> sent;
-    BattleGenerator generator(o);
-    for (int i = 0; i < shots; ++i) {
+    std::vector<std::uint8_t> snapshot;
+    std::uint64_t final_hash = 0;
+    BattleOptions options; ///< with the zone at the map's centre
+};
+
+Battle fightBattle(const Settings& s) {
+    Battle b;
+    b.options = s.battle;
+    // the authority is gone when this returns: the process then holds the client's side only
+    Terrain authority = std::move(*makeProceduralMap(s.map));
+    const WorldSpec& spec = authority.spec();
+    b.options.zone_x = spec.extentX() / 2;
+    b.options.zone_y = spec.extentY() / 2;
+    if (s.join_after == 0)
+        b.snapshot = encodeSnapshot(authority, 0);
+    BattleGenerator generator(b.options);
+    for (int i = 0; i < s.shots; ++i) {
         const BattleShot shot = generator.next(authority);
         if (shot.crater) {
             auto op = quantizeOp(*shot.crater, spec);
             if (op && authority.apply(*op))
-                sent.push_back({*op, authority.worldHash()});
+                b.sent.push_back({*op, authority.worldHash()});
         }
-        if (i + 1 == join_after) {
-            snapshot = encodeSnapshot(authority, 0);
-            sent.clear(); // in the snapshot
+        if (i + 1 == s.join_after) {
+            b.snapshot = encodeSnapshot(authority, 0);
+            b.sent.clear(); // in the snapshot
         }
     }
-    const std::uint64_t final_hash = authority.worldHash();
-    const BattleOptions battle = o;
-    held.reset(); // the client's process holds its replica, not the server's world
+    b.final_hash = authority.worldHash();
+    return b;
+}
 
-    client::Replica replica;
-    replica.loadSnapshot(std::move(*decodeSnapshot(snapshot)));
-    std::vector<std::uint8_t>().swap(snapshot);
-    replica.takeDirty();
-    roam::TessellatorOptions to;
-    to.tau_pixels = tau;
-    to.max_triangles = max_triangles;
-    to.max_detail_blocks = max_blocks;
-    to.work_budget = work_budget;
-    to.stale_block_budget = stale_budget;
-    const auto build_start = bench::Clock::now();
-    roam::Tessellator tess(replica.terrain(), to);
-    tess.update(flightCamera(flight, 0, replica.terrain(), battle, width, height));
-    const double first_frame_ms = bench::msSince(build_start);
-
-    // the renderer, as a rendering bot has it: sync and draw every frame
+/// The renderer, as a rendering bot has it (--render): sync and draw every frame.
+struct Renderer {
     std::unique_ptr<render::GlContext> gl;
-    std::unique_ptr<render::TerrainRenderer> renderer;
-    if (render) {
-        auto context =
-            render::createOffscreenContext(render::OffscreenBackend::kOsmesa, width, height);
-        if (!context) {
-            std::fprintf(stderr, "client_battle_bench: %s\n", context.error().message.c_str());
-            return 2;
-        }
-        gl = std::move(*context);
-        auto made = render::TerrainRenderer::create(*gl);
-        if (!made) {
-            std::fprintf(stderr, "client_battle_bench: %s\n", made.error().message.c_str());
-            return 2;
-        }
-        renderer = std::move(*made);
-    }
-    client::FrameBudgetOptions budget_options;
-    budget_options.target_ms = frame_target_ms;
-    budget_options.max_triangles = max_triangles;
-    client::FrameBudget budget(budget_options);
-    std::vector<double> render_ms;
+    std::unique_ptr<render::TerrainRenderer> terrain;
+};
 
+Result<Renderer> makeRenderer(const Settings& s) {
+    Renderer r;
+    if (!s.render)
+        return r;
+    auto context =
+        render::createOffscreenContext(render::OffscreenBackend::kOsmesa, s.width, s.height);
+    if (!context)
+        return context.error();
+    r.gl = std::move(*context);
+    auto made = render::TerrainRenderer::create(*r.gl);
+    if (!made)
+        return made.error();
+    r.terrain = std::move(*made);
+    return r;
+}
+
+/// What the flight measured, frame by frame.
+struct Tally {
     std::vector<double> single_total, single_apply, single_feed, single_update;
     std::vector<double> burst_total;
     std::vector<double> catch_up_total; // frames after a burst applying more than one op
     std::vector<double> quiet_total;    // frames applying no op (after the battle, --frames)
     std::vector<double> frame_total;
-    std::deque<int> arrived_at; // the frame each waiting op arrived in
-    client::OpPacer pacer(pacing);
-    int max_delay_frames = 0;
+    std::vector<double> render_ms;
     std::vector<double> triangles;
     std::vector<double> error_bound; // pixels: tau, or what the cap forced
+    std::vector<double> in_use;      // blocks that cannot go, sampled
+    int max_delay_frames = 0;
     int threshold_moves = 0;
     int rebuilds = 0;
     int capped_frames = 0;
     std::int64_t pool_refusals = 0;
     std::int64_t materialised = 0;
     std::int64_t evicted = 0;
-    std::vector<double> in_use; // blocks that cannot go, sampled
     bool hashes_agree = true;
+};
+
+/// The flight: ops arrive (one a frame, a burst every --burst-every frames), are applied paced,
+/// fed to the tessellator, and the frame is tessellated (and drawn) for the flight's camera.
+Tally fly(
+    const Settings& s,
+    const Battle& battle,
+    client::Replica& replica,
+    roam::Tessellator& tess,
+    Renderer& renderer) {
+    Tally t;
+    client::FrameBudgetOptions budget_options;
+    budget_options.target_ms = s.frame_target_ms;
+    budget_options.max_triangles = s.max_triangles;
+    client::FrameBudget budget(budget_options);
+    const std::vector<SentOp>& sent = battle.sent;
+    std::deque<int> arrived_at; // the frame each waiting op arrived in
+    client::OpPacer pacer(s.pacing);
     std::size_t next = 0;
     std::uint64_t seq = 0;
-    for (int f = 1; next < sent.size() || f <= min_frames; ++f) {
+    for (int f = 1; next < sent.size() || f <= s.min_frames; ++f) {
         const std::size_t received = next + arrived_at.size();
         const int arriving = received >= sent.size() ? 0
-                             : f % burst_every == 0
+                             : f % s.burst_every == 0
                                  ? static_cast<int>(std::min<std::size_t>(
-                                       static_cast<std::size_t>(burst), sent.size() - received))
+                                       static_cast<std::size_t>(s.burst), sent.size() - received))
                                  : 1;
         for (int k = 0; k < arriving; ++k)
             arrived_at.push_back(f);
-        // the client's pacing: a burst waits for the next frames (client/op_pacing.h)
+        // the client's pacing: a s.burst waits for the next frames (client/op_pacing.h)
         const std::size_t applying = pacer.take(arrived_at.size());
         const auto t0 = bench::Clock::now();
         for (std::size_t k = 0; k < applying; ++k, ++next) {
             auto outcome = replica.applyOp(++seq, sent[next].op, sent[next].world_hash);
             if (!outcome || *outcome != client::Replica::OpOutcome::kApplied)
-                hashes_agree = false;
+                t.hashes_agree = false;
         }
         const double apply_ms = bench::msSince(t0);
         for (std::size_t k = 0; k < applying; ++k) {
-            max_delay_frames = std::max(max_delay_frames, f - arrived_at.front());
+            t.max_delay_frames = std::max(t.max_delay_frames, f - arrived_at.front());
             arrived_at.pop_front();
         }
         const auto t1 = bench::Clock::now();
@@ -274,53 +293,63 @@ int main(int argc, char** argv) {
         const auto t2 = bench::Clock::now();
         const double threshold = tess.threshold();
         const roam::Camera camera =
-            flightCamera(flight, f, replica.terrain(), battle, width, height);
+            flightCamera(s.flight, f, replica.terrain(), battle.options, s.width, s.height);
         const roam::FrameStats fs = tess.update(camera);
-        threshold_moves += tess.threshold() != threshold ? 1 : 0;
+        t.threshold_moves += tess.threshold() != threshold ? 1 : 0;
         const double update_ms = bench::msSince(t2);
         double draw_ms = 0.0;
-        if (renderer) {
+        if (renderer.terrain) {
             const auto t3 = bench::Clock::now();
-            renderer->sync(tess, replica.terrain());
-            renderer->draw(tess, camera, render::RenderOptions{});
-            gl->present();
+            renderer.terrain->sync(tess, replica.terrain());
+            renderer.terrain->draw(tess, camera, render::RenderOptions{});
+            renderer.gl->present();
             draw_ms = bench::msSince(t3);
-            render_ms.push_back(draw_ms);
+            t.render_ms.push_back(draw_ms);
         }
         tess.setMaxTriangles(
             budget.observe(update_ms + feed_ms + apply_ms + draw_ms, fs.triangles));
         const double total = apply_ms + feed_ms + update_ms;
-        frame_total.push_back(total);
-        triangles.push_back(static_cast<double>(fs.triangles));
-        error_bound.push_back(fs.error_bound_pixels);
-        rebuilds += fs.rebuilt ? 1 : 0;
-        capped_frames += fs.refused_by_cap > 0 ? 1 : 0;
-        pool_refusals += fs.refused_by_pool;
-        materialised += fs.blocks_materialised;
-        evicted += fs.blocks_evicted;
+        t.frame_total.push_back(total);
+        t.triangles.push_back(static_cast<double>(fs.triangles));
+        t.error_bound.push_back(fs.error_bound_pixels);
+        t.rebuilds += fs.rebuilt ? 1 : 0;
+        t.capped_frames += fs.refused_by_cap > 0 ? 1 : 0;
+        t.pool_refusals += fs.refused_by_pool;
+        t.materialised += fs.blocks_materialised;
+        t.evicted += fs.blocks_evicted;
         if (f % 25 == 0)
-            in_use.push_back(static_cast<double>(tess.pinnedBlockCount()));
+            t.in_use.push_back(static_cast<double>(tess.pinnedBlockCount()));
         if (arriving > 1) {
-            burst_total.push_back(total); // the frame the burst arrives in
+            t.burst_total.push_back(total); // the frame the s.burst arrives in
         } else if (applying > 1) {
-            catch_up_total.push_back(total);
+            t.catch_up_total.push_back(total);
         } else if (applying == 1) {
-            single_total.push_back(total);
-            single_apply.push_back(apply_ms);
-            single_feed.push_back(feed_ms);
-            single_update.push_back(update_ms);
+            t.single_total.push_back(total);
+            t.single_apply.push_back(apply_ms);
+            t.single_feed.push_back(feed_ms);
+            t.single_update.push_back(update_ms);
         } else {
-            quiet_total.push_back(total); // no op applied: the flight alone
+            t.quiet_total.push_back(total); // no op applied: the s.flight alone
         }
     }
-    if (replica.worldHash() != final_hash)
-        hashes_agree = false;
+    if (replica.worldHash() != battle.final_hash)
+        t.hashes_agree = false;
+    return t;
+}
 
-    const bench::Summary single = bench::summarize(single_total);
-    const bench::Summary bursts = bench::summarize(burst_total);
-    const bench::Summary catch_up = bench::summarize(catch_up_total);
-    const bench::Summary quiet = bench::summarize(quiet_total);
-    const bench::Summary frames = bench::summarize(frame_total);
+/// The JSON report and the summary on stdout.
+Json reportOf(
+    const Settings& s,
+    const Battle& battle,
+    const Tally& t,
+    const roam::Tessellator& tess,
+    const Renderer& renderer,
+    double first_frame_ms) {
+    const bench::Summary single = bench::summarize(t.single_total);
+    const bench::Summary bursts = bench::summarize(t.burst_total);
+    const bench::Summary catch_up = bench::summarize(t.catch_up_total);
+    const bench::Summary quiet = bench::summarize(t.quiet_total);
+    const bench::Summary frames = bench::summarize(t.frame_total);
     const double tess_mib = bench::mib(tess.memoryBytes());
     const double rss_mib = bench::mib(bench::residentBytes());
     const double burst_ratio = frames.p50 > 0 ? bursts.p50 / frames.p50 : 0.0;
@@ -328,55 +357,57 @@ int main(int argc, char** argv) {
         {"benchmark", "client_battle_bench"},
         {"date", bench::isoNow()},
         {"cpu", bench::cpuModel()},
-        {"map", "procedural " + std::to_string(map.width) + " x " + std::to_string(map.width)},
-        {"flight", flight},
-        {"viewport", std::to_string(width) + " x " + std::to_string(height)},
-        {"tau_pixels", tau},
-        {"max_triangles", max_triangles},
-        {"shots", shots},
-        {"join_after", join_after},
-        {"frames", frame_total.size()},
-        {"render", render},
-        {"frame_target_ms", frame_target_ms},
-        {"render_ms", summaryJson(bench::summarize(render_ms))},
+        {"map", "procedural " + std::to_string(s.map.width) + " x " + std::to_string(s.map.width)},
+        {"flight", s.flight},
+        {"viewport", std::to_string(s.width) + " x " + std::to_string(s.height)},
+        {"tau_pixels", s.tau},
+        {"max_triangles", s.max_triangles},
+        {"shots", s.shots},
+        {"join_after", s.join_after},
+        {"frames", t.frame_total.size()},
+        {"render", s.render},
+        {"frame_target_ms", s.frame_target_ms},
+        {"render_ms", summaryJson(bench::summarize(t.render_ms))},
         {"gpu_and_shadow_mib",
-         renderer ? bench::mib(renderer->gpuBytes() + renderer->shadowBytes()) : 0.0},
-        {"ops", sent.size()},
-        {"hashes_agree", hashes_agree},
+         renderer.terrain
+             ? bench::mib(renderer.terrain->gpuBytes() + renderer.terrain->shadowBytes())
+             : 0.0},
+        {"ops", battle.sent.size()},
+        {"hashes_agree", t.hashes_agree},
         {"first_frame_ms", first_frame_ms},
         {"crater_frame_ms",
          Json{
              {"total", summaryJson(single)},
-             {"apply", summaryJson(bench::summarize(single_apply))},
-             {"feed", summaryJson(bench::summarize(single_feed))},
-             {"update", summaryJson(bench::summarize(single_update))}}},
+             {"apply", summaryJson(bench::summarize(t.single_apply))},
+             {"feed", summaryJson(bench::summarize(t.single_feed))},
+             {"update", summaryJson(bench::summarize(t.single_update))}}},
         {"burst",
          Json{
-             {"ops", burst},
+             {"ops", s.burst},
              {"frame_ms", summaryJson(bursts)},
              {"ratio", burst_ratio},
-             {"ops_per_frame", pacing.ops_per_frame},
+             {"ops_per_frame", s.pacing.ops_per_frame},
              {"catch_up_frame_ms", summaryJson(catch_up)},
              {"catch_up_ratio_max", frames.p50 > 0 ? catch_up.max / frames.p50 : 0.0},
-             {"max_delay_frames", max_delay_frames}}},
+             {"max_delay_frames", t.max_delay_frames}}},
         {"frame_ms", summaryJson(frames)},
         {"quiet_frame_ms", summaryJson(quiet)},
-        {"work_budget", work_budget},
-        {"triangles", summaryJson(bench::summarize(triangles))},
-        {"error_bound_pixels", summaryJson(bench::summarize(error_bound))},
-        {"threshold_moves", threshold_moves},
-        {"rebuild_frames", rebuilds},
-        {"capped_frames", capped_frames},
+        {"work_budget", s.work_budget},
+        {"triangles", summaryJson(bench::summarize(t.triangles))},
+        {"error_bound_pixels", summaryJson(bench::summarize(t.error_bound))},
+        {"threshold_moves", t.threshold_moves},
+        {"rebuild_frames", t.rebuilds},
+        {"capped_frames", t.capped_frames},
         {"detail_cells", tess.detailCellCount()},
         {"detail_blocks",
          Json{
-             {"pool", max_blocks},
-             {"stale_budget", stale_budget},
+             {"pool", s.max_blocks},
+             {"stale_budget", s.stale_budget},
              {"resident", tess.blockCount()},
-             {"in_use", summaryJson(bench::summarize(in_use))},
-             {"materialised", materialised},
-             {"evicted", evicted},
-             {"refusals", pool_refusals}}},
+             {"in_use", summaryJson(bench::summarize(t.in_use))},
+             {"materialised", t.materialised},
+             {"evicted", t.evicted},
+             {"refusals", t.pool_refusals}}},
         {"tessellator_mib", tess_mib},
         {"tessellator_memory_mib", bench::tessellatorMemoryJson(tess)},
         {"rss_mib", rss_mib},
@@ -384,27 +415,27 @@ int main(int argc, char** argv) {
                       {"crater_p50_le_1ms", single.p50 <= 1.0},
                       {"crater_p99_le_3ms", single.p99 <= 3.0},
                       {"burst_le_2x_median_frame", burst_ratio <= 2.0},
-                      {"no_rebuild", rebuilds == 0},
+                      {"no_rebuild", t.rebuilds == 0},
                       {"tessellator_le_32mb", tess_mib <= 32.0}}}};
     std::printf(
         "client_battle_bench: %zu ops after %d shots in the snapshot, %zu frames, %s flight, "
         "tau %.2g px, %d x %d%s\n",
-        sent.size(), join_after, frame_total.size(), flight.c_str(), tau, width, height,
-        render ? ", rendered (OSMesa)" : "");
+        battle.sent.size(), s.join_after, t.frame_total.size(), s.flight.c_str(), s.tau, s.width,
+        s.height, s.render ? ", rendered (OSMesa)" : "");
     std::printf(
         "  crater frame ms: p50 %.2f p99 %.2f max %.2f (apply p50 %.2f, feed p50 %.2f, update "
         "p50 %.2f)\n",
-        single.p50, single.p99, single.max, bench::summarize(single_apply).p50,
-        bench::summarize(single_feed).p50, bench::summarize(single_update).p50);
+        single.p50, single.p99, single.max, bench::summarize(t.single_apply).p50,
+        bench::summarize(t.single_feed).p50, bench::summarize(t.single_update).p50);
     std::printf(
         "  burst of %d: p50 %.2f ms (%.1fx the median frame %.2f ms); rebuild frames %d, capped "
         "frames %d\n",
-        burst, bursts.p50, burst_ratio, frames.p50, rebuilds, capped_frames);
+        s.burst, bursts.p50, burst_ratio, frames.p50, t.rebuilds, t.capped_frames);
     std::printf(
         "  paced at %d ops a frame: catch-up frames p50 %.2f max %.2f ms (%.1fx the median), "
         "ops waited up to %d frames\n",
-        pacing.ops_per_frame, catch_up.p50, catch_up.max,
-        frames.p50 > 0 ? catch_up.max / frames.p50 : 0.0, max_delay_frames);
+        s.pacing.ops_per_frame, catch_up.p50, catch_up.max,
+        frames.p50 > 0 ? catch_up.max / frames.p50 : 0.0, t.max_delay_frames);
     if (quiet.n > 0)
         std::printf(
             "  frames with no op (the flight alone): %zu, p50 %.2f p99 %.2f max %.2f ms\n", quiet.n,
@@ -413,28 +444,61 @@ int main(int argc, char** argv) {
         "  error bound px: p50 %.2f max %.2f (threshold moved in %d frames)\n"
         "  triangles p50 %.0f max %.0f; tessellator %.1f MiB, RSS %.1f MiB; first frame %.0f "
         "ms; hashes %s\n",
-        bench::summarize(error_bound).p50, bench::summarize(error_bound).max, threshold_moves,
-        bench::summarize(triangles).p50, bench::summarize(triangles).max, tess_mib, rss_mib,
-        first_frame_ms, hashes_agree ? "agree" : "DIFFER");
-    if (renderer)
+        bench::summarize(t.error_bound).p50, bench::summarize(t.error_bound).max, t.threshold_moves,
+        bench::summarize(t.triangles).p50, bench::summarize(t.triangles).max, tess_mib, rss_mib,
+        first_frame_ms, t.hashes_agree ? "agree" : "DIFFER");
+    if (renderer.terrain)
         std::printf(
             "  render (sync + draw) ms: p50 %.1f p99 %.1f; GPU buffers and CPU copies %.1f MiB\n",
-            bench::summarize(render_ms).p50, bench::summarize(render_ms).p99,
-            bench::mib(renderer->gpuBytes() + renderer->shadowBytes()));
+            bench::summarize(t.render_ms).p50, bench::summarize(t.render_ms).p99,
+            bench::mib(renderer.terrain->gpuBytes() + renderer.terrain->shadowBytes()));
     bench::printTessellatorMemory(tess);
     std::printf(
         "  detail blocks: %d cells, pool %d, resident %d, in use p50 %.0f max %.0f; "
         "materialised %lld, evicted %lld, refusals %lld\n",
-        tess.detailCellCount(), max_blocks, tess.blockCount(), bench::summarize(in_use).p50,
-        bench::summarize(in_use).max, static_cast<long long>(materialised),
-        static_cast<long long>(evicted), static_cast<long long>(pool_refusals));
-    if (!out.empty()) {
-        std::ofstream file(out);
+        tess.detailCellCount(), s.max_blocks, tess.blockCount(), bench::summarize(t.in_use).p50,
+        bench::summarize(t.in_use).max, static_cast<long long>(t.materialised),
+        static_cast<long long>(t.evicted), static_cast<long long>(t.pool_refusals));
+    return report;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+    Settings s;
+    if (const std::optional<int> stop = parseSettings(argc, argv, s))
+        return *stop;
+    Battle battle = fightBattle(s);
+
+    client::Replica replica;
+    replica.loadSnapshot(std::move(*decodeSnapshot(battle.snapshot)));
+    std::vector<std::uint8_t>().swap(battle.snapshot);
+    replica.takeDirty();
+    roam::TessellatorOptions to;
+    to.tau_pixels = s.tau;
+    to.max_triangles = s.max_triangles;
+    to.max_detail_blocks = s.max_blocks;
+    to.work_budget = s.work_budget;
+    to.stale_block_budget = s.stale_budget;
+    const auto build_start = bench::Clock::now();
+    roam::Tessellator tess(replica.terrain(), to);
+    tess.update(flightCamera(s.flight, 0, replica.terrain(), battle.options, s.width, s.height));
+    const double first_frame_ms = bench::msSince(build_start);
+
+    Result<Renderer> renderer = makeRenderer(s);
+    if (!renderer) {
+        std::fprintf(stderr, "client_battle_bench: %s\n", renderer.error().message.c_str());
+        return 2;
+    }
+    const Tally t = fly(s, battle, replica, tess, *renderer);
+    const Json json = reportOf(s, battle, t, tess, *renderer, first_frame_ms);
+    if (!s.out.empty()) {
+        std::ofstream file(s.out);
         if (!file) {
-            std::fprintf(stderr, "client_battle_bench: cannot write %s\n", out.c_str());
+            std::fprintf(stderr, "client_battle_bench: cannot write %s\n", s.out.c_str());
             return 2;
         }
-        file << report.dump(2) << "\n";
+        file << json.dump(2) << "\n";
     }
-    return hashes_agree ? 0 : 1;
+    return t.hashes_agree ? 0 : 1;
 }
