@@ -636,54 +636,65 @@ bool writeCsv(const std::string& path, const std::vector<Run>& runs, const Fligh
     return true;
 }
 
-} // namespace
-
-int main(int argc, char** argv) {
-    CLI::App app{"roam_bench: ROAM split/merge against split-only on a scripted SRTM flight"};
+/// The command line.
+struct CommandLine {
     std::string out_path = "out/bench/roam_bench.json";
     std::string csv_path;
     std::string dem_dir = TERRAIN_DEM_DIR;
     Settings settings;
     std::vector<double> taus{0.5, 1.0, 2.0, 4.0};
     bool quick = false;
-    app.add_option("--out", out_path, "JSON output path");
-    app.add_option("--csv", csv_path, "per-frame CSV output path (optional)");
-    app.add_option("--dem-dir", dem_dir, "folder holding srtm_n44w072/");
-    auto* frames_opt = app.add_option("--frames", settings.frames, "frames of the flight")
+    int craters = 0;
+};
+
+/// The command line into `c`; an exit code when the program should stop (help, a bad option).
+std::optional<int> parseCommandLine(int argc, char** argv, CommandLine& c) {
+    CLI::App app{"roam_bench: ROAM split/merge against split-only on a scripted SRTM flight"};
+    app.add_option("--out", c.out_path, "JSON output path");
+    app.add_option("--csv", c.csv_path, "per-frame CSV output path (optional)");
+    app.add_option("--dem-dir", c.dem_dir, "folder holding srtm_n44w072/");
+    auto* frames_opt = app.add_option("--frames", c.settings.frames, "frames of the flight")
                            ->check(CLI::Range(2, 1000000));
-    auto* tau_opt = app.add_option("--tau", taus, "screen-error thresholds in pixels")
+    auto* tau_opt = app.add_option("--tau", c.taus, "screen-error thresholds in pixels")
                         ->check(CLI::PositiveNumber);
     app.add_option(
-           "--error-every", settings.error_every,
+           "--error-every", c.settings.error_every,
            "measure the screen error every N frames (and on the last); 0: never")
         ->check(CLI::NonNegativeNumber);
     app.add_option(
-           "--error-samples-per-edge", settings.error_options.min_samples_per_edge,
+           "--error-samples-per-edge", c.settings.error_options.min_samples_per_edge,
            "measureScreenError: at least this many samples per triangle edge")
         ->check(CLI::Range(1, 1000));
     app.add_option(
-           "--error-samples-per-cell", settings.error_options.samples_per_cell,
+           "--error-samples-per-cell", c.settings.error_options.samples_per_cell,
            "measureScreenError: samples per cell of edge length")
         ->check(CLI::PositiveNumber);
-    app.add_flag("--quick", quick, "smoke run: 120 frames, tau = 1 px only");
+    app.add_flag("--quick", c.quick, "smoke run: 120 frames, tau = 1 px only");
     app.add_option(
-           "--max-blocks", settings.max_detail_blocks,
+           "--max-blocks", c.settings.max_detail_blocks,
            "detail blocks resident at once (the tessellator's pool)")
         ->check(CLI::PositiveNumber);
-    int craters = 0;
     app.add_option(
-           "--craters", craters,
+           "--craters", c.craters,
            "apply this many random craters (R 50-400 m, seed 1) before flying: detail blocks")
         ->check(CLI::NonNegativeNumber);
-    CLI11_PARSE(app, argc, argv);
-    if (quick) {
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
+    }
+    if (c.quick) {
         if (frames_opt->count() == 0)
-            settings.frames = 120;
+            c.settings.frames = 120;
         if (tau_opt->count() == 0)
-            taus = {1.0};
+            c.taus = {1.0};
     }
 
-    const auto bench_start = Clock::now();
+    return std::nullopt;
+}
+
+/// The report's head: the machine, the build, the load.
+Json reportHead(const CommandLine& c) {
     Json root = Json::object();
     root["bench"] = "roam_bench";
     root["date"] = isoNow();
@@ -693,17 +704,25 @@ int main(int argc, char** argv) {
 #else
     root["build"] = "debug (asserts on): timings not representative";
 #endif
-    root["quick"] = quick;
+    root["quick"] = c.quick;
     root["loadavg_1min_start"] = loadAverage();
+    return root;
+}
 
-    const std::filesystem::path dem_path = std::filesystem::path(dem_dir) / "srtm_n44w072";
+/// srtm_n44w072, with the craters asked for, described in the report; nothing (and `exit` set)
+/// when the DEM is absent (a report that says it was skipped) or cannot be read. `import_ms`:
+/// the import's time.
+std::optional<io::ImportedDem>
+importWorld(const CommandLine& c, Json& root, double& import_ms, int& exit) {
+    const std::filesystem::path dem_path = std::filesystem::path(c.dem_dir) / "srtm_n44w072";
     if (!std::filesystem::exists(dem_path / "srtm_n44w072.json")) {
         const std::string why =
             "skipped: " + (dem_path / "srtm_n44w072.json").string() +
             " not found (../shared/data/dem absent; --dem-dir to point elsewhere)";
         std::printf("roam_bench: %s\n", why.c_str());
         root["skipped"] = why;
-        return writeJson(out_path, root) ? 0 : 2;
+        exit = writeJson(c.out_path, root) ? 0 : 2;
+        return std::nullopt;
     }
     const auto import_start = Clock::now();
     auto dem = io::importDem(dem_path, {});
@@ -711,14 +730,15 @@ int main(int argc, char** argv) {
         std::fprintf(
             stderr, "roam_bench: cannot import %s: %s\n", dem_path.c_str(),
             dem.error().message.c_str());
-        return 2;
+        exit = 2;
+        return std::nullopt;
     }
-    const double import_ms = msSince(import_start);
+    import_ms = msSince(import_start);
     // a cratered world exercises the detail blocks (the flight crosses the middle of the map)
     const auto craters_start = Clock::now();
-    if (craters > 0) {
+    if (c.craters > 0) {
         CraterSeries series;
-        series.count = craters;
+        series.count = c.craters;
         series.min_radius = 50.0;
         series.max_radius = 400.0;
         for (const OpRequest& r : randomCraters(dem->terrain.spec(), series)) {
@@ -740,35 +760,45 @@ int main(int argc, char** argv) {
         d["patches"] = terrain.patchCount();
         d["height_range_m"] = {dem->info.min_metres, dem->info.max_metres};
         d["import_ms"] = import_ms;
-        d["craters"] = craters;
+        d["craters"] = c.craters;
         d["craters_ms"] = craters_ms;
-        d["note"] = craters == 0 ? "as imported, no ops: no detail patches, so the tessellator "
-                                   "refines to the base cells' triangles at most"
-                                 : "random craters (R 50-400 m, seed 1) applied after import";
+        d["note"] = c.craters == 0 ? "as imported, no ops: no detail patches, so the tessellator "
+                                     "refines to the base cells' triangles at most"
+                                   : "random craters (R 50-400 m, seed 1) applied after import";
         root["dem"] = std::move(d);
     }
 
-    const FlightParams params;
-    const Flight flight = makeFlight(terrain, params, settings.frames);
+    return std::move(*dem);
+}
+
+/// The camera, the flight and the settings, in the report and on stdout.
+void describeFlight(
+    const CommandLine& c,
+    const Terrain& terrain,
+    const FlightParams& params,
+    const Flight& flight,
+    double import_ms,
+    Json& root) {
+    const WorldSpec spec = terrain.spec();
     {
-        Json c = Json::object();
-        c["viewport"] = {params.width, params.height};
-        c["fovy_deg"] = params.fovy_deg;
-        c["near_m"] = params.near_m;
-        c["up"] = {0, 0, 1};
-        root["camera"] = std::move(c);
+        Json camera = Json::object();
+        camera["viewport"] = {params.width, params.height};
+        camera["fovy_deg"] = params.fovy_deg;
+        camera["near_m"] = params.near_m;
+        camera["up"] = {0, 0, 1};
+        root["camera"] = std::move(camera);
     }
-    root["flight"] = flightJson(params, flight, settings.frames);
+    root["flight"] = flightJson(params, flight, c.settings.frames);
     {
         Json s = Json::object();
-        s["taus_px"] = taus;
+        s["taus_px"] = c.taus;
         s["modes"] = {"split_merge", "split_only"};
         s["tessellator_options"] = "defaults apart from tau and mode (cap 4M triangles, work "
                                    "budget 1M splits + merges per frame)";
-        s["error_every_frames"] = settings.error_every;
+        s["error_every_frames"] = c.settings.error_every;
         s["error_options"] = {
-            {"min_samples_per_edge", settings.error_options.min_samples_per_edge},
-            {"samples_per_cell", settings.error_options.samples_per_cell}};
+            {"min_samples_per_edge", c.settings.error_options.min_samples_per_edge},
+            {"samples_per_cell", c.settings.error_options.samples_per_cell}};
         s["timing"] = "wall time of Tessellator::update() on one thread (steady_clock); "
                       "construction timed on its own; the simulated renderer upload "
                       "(takeChanges per dirty tile) runs between frames, untimed";
@@ -784,19 +814,23 @@ int main(int argc, char** argv) {
     std::printf(
         "srtm_n44w072 %dx%d, %.1f m, %d tiles (import %.0f ms); flight %d frames, %.0f m at "
         "%.0f m/s, %.0f m above smoothed ground (min clearance %.0f m)\n",
-        spec.width, spec.height, spec.spacingMetres(), spec.tileCount(), import_ms, settings.frames,
-        flight.path_length_m, params.speed_mps, params.altitude_m, flight.min_clearance_m);
+        spec.width, spec.height, spec.spacingMetres(), spec.tileCount(), import_ms,
+        c.settings.frames, flight.path_length_m, params.speed_mps, params.altitude_m,
+        flight.min_clearance_m);
+}
 
+/// Every tau in both modes: a timed pass, then (with --error-every) the untimed error pass.
+std::vector<Run>
+flyEveryRun(const CommandLine& c, const Terrain& terrain, const Flight& flight, bool& failed) {
     std::vector<Run> runs;
-    bool failed = false;
-    for (const double tau : taus)
+    for (const double tau : c.taus)
         for (const TessellationMode mode :
              {TessellationMode::kSplitMerge, TessellationMode::kSplitOnly}) {
             const auto start = Clock::now();
-            runs.push_back(runFlight(terrain, flight, tau, mode, settings, false));
+            runs.push_back(runFlight(terrain, flight, tau, mode, c.settings, false));
             Run& r = runs.back();
-            if (settings.error_every > 0) {
-                takeError(r, runFlight(terrain, flight, tau, mode, settings, true));
+            if (c.settings.error_every > 0) {
+                takeError(r, runFlight(terrain, flight, tau, mode, c.settings, true));
                 if (!r.replay_matches)
                     std::fprintf(
                         stderr,
@@ -822,13 +856,18 @@ int main(int argc, char** argv) {
                     tau, modeName(mode), static_cast<long long>(r.missing_block_refusals));
         }
 
+    return runs;
+}
+
+/// The runs, split/merge against split-only per tau, and the goals at tau 1 px, in the report.
+std::vector<Goal>
+compareRuns(const std::vector<Run>& runs, std::vector<Comparison>& comparisons, Json& root) {
     Json runs_json = Json::array();
     for (const Run& r : runs)
         runs_json.push_back(runJson(r));
     root["runs"] = std::move(runs_json);
 
     // runs come in pairs: split/merge then split-only for the same tau
-    std::vector<Comparison> comparisons;
     Json comparisons_json = Json::array();
     std::optional<std::size_t> tau1;
     for (std::size_t k = 0; k + 1 < runs.size(); k += 2) {
@@ -858,7 +897,14 @@ int main(int argc, char** argv) {
     } else {
         root["goals_tau_1px"] = "not evaluated: tau = 1 px was not run";
     }
+    return tau1_goals;
+}
 
+/// The tables on stdout.
+void printTables(
+    const std::vector<Run>& runs,
+    const std::vector<Comparison>& comparisons,
+    const std::vector<Goal>& tau1_goals) {
     std::printf(
         "\n%-4s %-11s %8s %8s %7s %7s %7s %9s %9s %13s %17s %7s\n", "tau", "mode", "build ms",
         "frame0", "p50 ms", "p99 ms", "max ms", "vis tris", "all tris", "idx chg p50/max",
@@ -891,18 +937,41 @@ int main(int argc, char** argv) {
                 "  %-20s %10.4f (target %.4f)  %s\n", g.name, g.value, g.target,
                 g.met ? "met" : "NOT MET");
     }
+}
 
+} // namespace
+
+int main(int argc, char** argv) {
+    CommandLine c;
+    if (const std::optional<int> stop = parseCommandLine(argc, argv, c))
+        return *stop;
+    const auto bench_start = Clock::now();
+    Json root = reportHead(c);
+    int exit = 0;
+    double import_ms = 0.0;
+    std::optional<io::ImportedDem> dem = importWorld(c, root, import_ms, exit);
+    if (!dem)
+        return exit;
+    const Terrain& terrain = dem->terrain;
+    const FlightParams params;
+    const Flight flight = makeFlight(terrain, params, c.settings.frames);
+    describeFlight(c, terrain, params, flight, import_ms, root);
+    bool failed = false;
+    const std::vector<Run> runs = flyEveryRun(c, terrain, flight, failed);
+    std::vector<Comparison> comparisons;
+    const std::vector<Goal> tau1_goals = compareRuns(runs, comparisons, root);
+    printTables(runs, comparisons, tau1_goals);
     root["total_seconds"] = msSince(bench_start) * 1e-3;
     root["loadavg_1min_end"] = loadAverage();
     root["ok"] = !failed;
     std::printf("%-20s %.1f s\n", "total", msSince(bench_start) * 1e-3);
-    if (!csv_path.empty()) {
-        if (!writeCsv(csv_path, runs, flight))
+    if (!c.csv_path.empty()) {
+        if (!writeCsv(c.csv_path, runs, flight))
             return 2;
-        std::printf("wrote %s\n", csv_path.c_str());
+        std::printf("wrote %s\n", c.csv_path.c_str());
     }
-    if (!writeJson(out_path, root))
+    if (!writeJson(c.out_path, root))
         return 2;
-    std::printf("wrote %s%s\n", out_path.c_str(), failed ? " (with FAILURES)" : "");
+    std::printf("wrote %s%s\n", c.out_path.c_str(), failed ? " (with FAILURES)" : "");
     return failed ? 1 : 0;
 }
