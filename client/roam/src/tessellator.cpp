@@ -274,7 +274,7 @@ FrameStats Tessellator::update(const Camera& camera) {
     sweepIdleBlocks();
     trimGrains();
     stats.refused_by_pool = pool_refusals_ - pool_refusals;
-    freshenHeights();
+    bounds_.freshenHeights();
     stats.stale_blocks = staleBlockCount();
     if (stats.stale_blocks > 0)
         stats.budget_exhausted = true; // their bounds are the old surface's
@@ -282,6 +282,14 @@ FrameStats Tessellator::update(const Camera& camera) {
     stats.blocks_materialised = materialised_ - materialised;
     stats.blocks_evicted = evicted_ - evicted;
     return stats;
+}
+
+std::int64_t Tessellator::drainStale(std::int64_t budget) {
+    const std::int64_t bounded = bounds_.drainStale(budget);
+    if (bounded > 0 && initialized_ && !needs_rebuild_)
+        for (const DiamondId id : bounds_.moved())
+            refreshCandidate(id);
+    return bounded;
 }
 
 bool Tessellator::splitAt(LatticePoint p, FrameStats& stats) {
@@ -304,7 +312,7 @@ TessellatorMemory Tessellator::memory() const {
     TessellatorMemory m;
     const DiamondSpace::Memory space = space_.memory();
     const BlockPool::Memory pool = pool_.memory();
-    m.grid = space.grid + centre_cache_.capacity() * sizeof(Bounds);
+    m.grid = space.grid;
     m.records = blocks_.memoryBytes() + pool.blocks;
     for (std::size_t g = 0; g < kGrains; ++g)
         m.grains[g] = space.chunks[g] + pool.grains[g];
@@ -312,7 +320,7 @@ TessellatorMemory Tessellator::memory() const {
     for (const TileMesh& t : tiles_)
         m.meshes += t.memoryBytes();
     m.meshes += vertices_.memoryBytes();
-    m.scratch = block_bounds_.memoryBytes() + morph_stamp_.capacity() * sizeof(std::uint32_t);
+    m.scratch = bounds_.memoryBytes() + morph_stamp_.capacity() * sizeof(std::uint32_t);
     return m;
 }
 

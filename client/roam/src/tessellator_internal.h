@@ -3,6 +3,7 @@
 // Constants and small helpers shared by the tessellator's translation units (bounds, mesh,
 // frames). Private to terrain_roam.
 
+#include <terrain/roam/detail_blocks.h>
 #include <terrain/roam/lattice.h>
 #include <terrain/world_spec.h>
 
@@ -38,5 +39,13 @@ inline constexpr std::uint64_t kPoolQuietFrames = 30;
 /// A threshold move re-examines the candidates keyed against the old one over this many frames.
 inline constexpr std::size_t kRekeyFrames = 8;
 inline constexpr std::size_t kRekeyAtOnce = 16384; ///< or at least this many per frame
+
+/// The tile a cell belongs to; -1 for the virtual cells past the grid.
+inline std::int32_t tileOfCell(DetailBlocks::CellXY c, const WorldSpec& spec) {
+    if (c.x < 0 || c.y < 0 || c.x >= spec.tilesX() * kTileCells ||
+        c.y >= spec.tilesY() * kTileCells)
+        return -1;
+    return (c.y / kTileCells) * spec.tilesX() + c.x / kTileCells;
+}
 
 } // namespace terrain::roam::detail

@@ -326,11 +326,7 @@ void Tessellator::markChangedSurface(CellRect cells) {
 }
 
 std::int32_t Tessellator::tileOfCell(DetailBlocks::CellXY c) const {
-    // virtual cells past the grid belong to no tile
-    if (c.x < 0 || c.y < 0 || c.x >= spec_.tilesX() * kTileCells ||
-        c.y >= spec_.tilesY() * kTileCells)
-        return -1;
-    return (c.y / kTileCells) * spec_.tilesX() + c.x / kTileCells;
+    return detail::tileOfCell(c, spec_);
 }
 
 void Tessellator::attachGrain(std::int32_t block, int g) {
@@ -458,16 +454,16 @@ void Tessellator::tileVertices(std::int32_t tile, std::span<TileVertex> out) con
 // ---- terrain changes ----------------------------------------------------------------------
 
 void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
-    ++terrain_generation_;
+    bounds_.surfaceChanged();
     if (all) {
         // a snapshot may bring another world (size, spacing): start from its spec
         if (tiles_.empty() || !(terrain_->spec() == spec_))
             adoptSpec();
+        bounds_.reset(*terrain_, {spec_, metres_per_fine_, max_x_, max_y_});
         // the heap forgets its ids before their ranges shrink with the pool (clearing writes to
         // each held id's position)
         policy_.clearCandidates();
         blocks_.reset(*terrain_); // records only: no block resident
-        stale_.clear();
         pool_.clear();
         space_.dropChunks();
         resizeDiamondState();
@@ -477,7 +473,7 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
             vertices_.bumpVersion(tile);
             vertices_.markAll(tile);
         }
-        recomputeBounds({}, true, false);
+        bounds_.recomputeAll();
         needs_rebuild_ = true;
         return;
     }
@@ -517,17 +513,8 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
             state(centreId(record)) = 0;
         }
         // the centres' bounds before (they are derived, not stored): only those that move are
-        // re-examined. A centre's bound reads the records of its 3 x 3 cells, and records
-        // change in the rectangle and appear or go one cell around it.
-        centre_rect_ = {
-            std::max(0, r.x0 - 2), std::max(0, r.y0 - 2), std::min(blocks_.cellsX() - 1, r.x1 + 2),
-            std::min(blocks_.cellsY() - 1, r.y1 + 2)};
-        centre_before_.clear();
-        for (std::int32_t cy = centre_rect_.y0; cy <= centre_rect_.y1; ++cy)
-            for (std::int32_t cx = centre_rect_.x0; cx <= centre_rect_.x1; ++cx) {
-                const std::int32_t rec = blocks_.recordOf(cx, cy);
-                centre_before_.push_back(rec < 0 ? Bounds{-1.0f, 0.0f, 0.0f} : centreBounds(rec));
-            }
+        // re-examined
+        bounds_.noteCentres(r);
         removed_.clear();
         added_.clear();
         blocks_.update(*terrain_, r, removed_, added_);
@@ -540,18 +527,16 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
             for (std::int32_t tx = std::max(0, r.x0) / kTileCells;
                  tx <= std::min(r.x1 / kTileCells, spec_.tilesX() - 1); ++tx)
                 vertices_.bumpVersion(ty * spec_.tilesX() + tx);
-        stale_.mark(r, blocks_, spec_.cellsX(), spec_.cellsY());
-        recomputed_.clear();
-        recomputeBounds(r, false, true);
-        if (initialized_ && !needs_rebuild_) {
-            for (const DiamondId id : recomputed_)
+        bounds_.markStale(r);
+        bounds_.recomputeAround(r);
+        if (initialized_ && !needs_rebuild_)
+            for (const DiamondId id : bounds_.moved())
                 refreshCandidate(id);
-        }
     }
     // the resident blocks' heights follow the op now, with the base grid's (read from the
     // terrain): a mesh drawn before the next update() is the new surface, without cracks
     // between a block and the grid around it (their bounds wait for the frames' budget)
-    freshenHeights();
+    bounds_.freshenHeights();
     for (const CellRect& r : merged_)
         markChangedSurface(r);
 }

@@ -56,7 +56,7 @@ void Tessellator::evict(std::int32_t block) {
         if (pool_.chunkOf(block, g) >= 0)
             releaseGrain(block, g);
     pool_.releaseBlock(block);
-    stale_.forget(block); // its place in the queue is skipped
+    bounds_.forget(block); // its place in the stale queue is skipped
     if (const std::int32_t tile = tileOfCell(blocks_.cellOf(block)); tile >= 0)
         vertices_.bumpVersion(tile);
     blocks_.release(block);
@@ -135,7 +135,7 @@ std::int32_t Tessellator::materialise(std::int32_t record) {
     space_.clearChunk(0, block);
     attachGrain(block, 0);
     if (!defer_bounds_)
-        boundGrains(block, 1u);
+        bounds_.boundGrains(block, 1u);
     ++materialised_;
     return block;
 }
@@ -147,27 +147,21 @@ void Tessellator::materialiseGrain(std::int32_t block, int g) {
     space_.clearChunk(g, chunk);
     attachGrain(block, g);
     if (!defer_bounds_)
-        boundGrains(block, 1u << g);
+        bounds_.boundGrains(block, 1u << g);
     ++grains_materialised_;
 }
 
-void Tessellator::boundGrains(std::int32_t block, unsigned grain_mask) {
-    const DetailBlocks::CellXY cell = blocks_.cellOf(block);
-    // a split that needs a block often needs its next grain soon after (the pass computed every
-    // grain's bounds): the last pass is reused while the terrain has not changed since
-    if (bounded_cell_.x != cell.x || bounded_cell_.y != cell.y ||
-        bounded_generation_ != terrain_generation_) {
-        const BlockGeometry geometry{
-            metres_per_fine_, grid_w_, grid_h_, spec_.cellsX(), spec_.cellsY()};
-        block_bounds_.compute(
-            *terrain_, blocks_, geometry, std::span<const DetailBlocks::CellXY>(&cell, 1));
-        bounded_cell_ = cell;
-        bounded_generation_ = terrain_generation_;
-    }
-    storeGrains(0, block, grain_mask, false);
-    if (const std::int32_t tile = tileOfCell(cell); tile >= 0)
-        vertices_.bumpVersion(tile);
-}
+struct Tessellator::PrefetchGrains final : BoundsUpdate::PassListener {
+    PrefetchGrains(Tessellator& t, const ViewMetric& m, double threshold)
+        : t_(t), m_(m), threshold_(threshold) {}
+
+    void bounded(std::size_t i, std::int32_t block) override;
+
+  private:
+    Tessellator& t_;
+    const ViewMetric& m_;
+    double threshold_;
+};
 
 void Tessellator::prefetchBlocks(const ViewMetric& m, double threshold) {
     // A top-down build at the threshold splits every centre whose priority exceeds it (its
@@ -189,7 +183,7 @@ void Tessellator::prefetchBlocks(const ViewMetric& m, double threshold) {
                     continue;
                 const Diamond centre = diamondAt(
                     {cx * kLatticePerCell + kCentreLocal, cy * kLatticePerCell + kCentreLocal});
-                if (const double p = priority(m, centre, centreBounds(r)); p > threshold)
+                if (const double p = priority(m, centre, bounds_.centreBounds(r)); p > threshold)
                     prefetch_.push_back({p, r});
             }
     }
@@ -204,21 +198,19 @@ void Tessellator::prefetchBlocks(const ViewMetric& m, double threshold) {
     if (prefetch_.empty())
         return;
     defer_bounds_ = true;
-    pass_.clear();
+    made_.clear();
     for (const auto& [p, r] : prefetch_)
-        pass_.push_back(materialise(r));
+        made_.push_back(materialise(r));
     defer_bounds_ = false;
-    prefetch_view_ = &m;
-    prefetch_threshold_ = threshold;
-    boundBlocks(pass_, false);
-    prefetch_view_ = nullptr;
+    PrefetchGrains grains(*this, m, threshold);
+    bounds_.boundBlocks(made_, &grains);
 }
 
-void Tessellator::prefetchGrains(std::size_t i, std::int32_t block) {
-    const DetailBlocks::CellXY c = blocks_.cellOf(block);
+void Tessellator::PrefetchGrains::bounded(std::size_t i, std::int32_t block) {
+    const DetailBlocks::CellXY c = t_.blocks_.cellOf(block);
     const GrainTables& tables = grainTables();
     for (int g = 1; g < kGrains; ++g) {
-        if (pool_.chunkOf(block, g) >= 0)
+        if (t_.pool_.chunkOf(block, g) >= 0)
             continue;
         // the build makes grain g when one of grain g - 1's deepest diamonds splits
         const auto coarser = static_cast<std::size_t>(g - 1);
@@ -230,19 +222,18 @@ void Tessellator::prefetchGrains(std::size_t i, std::int32_t block) {
                 c.x * kLatticePerCell + local % kLatticePerCell,
                 c.y * kLatticePerCell + local / kLatticePerCell};
             const Diamond d = diamondAt(p);
-            if (d.level != kGrainDeepestLevel[coarser] || !insideMap(p))
+            if (d.level != kGrainDeepestLevel[coarser] || !t_.insideMap(p))
                 continue;
             needed =
-                priority(
-                    *prefetch_view_, d, space_.codec().outward(block_bounds_.bounds(i, local))) >
-                prefetch_threshold_;
+                t_.priority(m_, d, t_.space_.codec().outward(t_.bounds_.passBounds(i, local))) >
+                threshold_;
         }
         if (!needed)
             return; // nor the finer ones: they hang from this one's splits
-        defer_bounds_ = true;
-        materialiseGrain(block, g);
-        defer_bounds_ = false;
-        storeGrains(i, block, 1u << g, false);
+        t_.defer_bounds_ = true;
+        t_.materialiseGrain(block, g);
+        t_.defer_bounds_ = false;
+        t_.bounds_.storeGrains(i, block, 1u << g);
     }
 }
 
@@ -251,7 +242,7 @@ void Tessellator::materialiseAll() {
     options_.max_detail_blocks = blocks_.recordCapacity() + 1;
     // every grain of every block, then their bounds in passes over squares of cells
     defer_bounds_ = true;
-    pass_.clear();
+    made_.clear();
     for (std::int32_t r = 0; r < blocks_.recordCapacity(); ++r) {
         if (!blocks_.recordInUse(r))
             continue;
@@ -261,10 +252,10 @@ void Tessellator::materialiseAll() {
         for (int g = 1; g < kGrains; ++g)
             if (pool_.chunkOf(block, g) < 0)
                 materialiseGrain(block, g);
-        pass_.push_back(block);
+        made_.push_back(block);
     }
     defer_bounds_ = false;
-    boundBlocks(pass_, false);
+    bounds_.boundBlocks(made_);
     options_.max_detail_blocks = std::max(limit, blocks_.count());
 }
 

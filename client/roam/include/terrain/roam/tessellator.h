@@ -44,18 +44,18 @@
 //
 // Output per tile: a TileMesh of indices into the tile's vertex array, which is the 65 x 65 base
 // grid followed by one segment per resident grain of a block of the tile (tileVertex()).
-// This class is a facade: the frame's passes (update()), the lattice walk (splits with their
-// forced parents, merges, emission into the tiles' lists) and the bounds along an op's paths.
-// Its parts own their state, each with its header and tests (ARCHITECTURE.md draws them):
-// DiamondSpace (per-id state and bounds), BlockPool (the blocks' grains and the rules that
-// evict them), StaleBlocks (what an op left stale), TileVertexArrays (the renderer's vertex
-// layout), SplitMerge (the policy: candidates, threshold, budget order), with CandidateHeap,
-// TileMesh, DetailBlocks and BlockBounds below them.
+// This class is a facade: the frame's passes (update()) and the lattice walk (splits with their
+// forced parents, merges, emission into the tiles' lists). Its parts own their state, each with
+// its header and tests (ARCHITECTURE.md draws them): DiamondSpace (per-id state and bounds),
+// BlockPool (the blocks' grains and the rules that evict them), BoundsUpdate (the bounds along
+// an op's paths and what it left stale), TileVertexArrays (the renderer's vertex layout),
+// SplitMerge (the policy: candidates, threshold, budget order), with CandidateHeap, TileMesh,
+// DetailBlocks, StaleBlocks and BlockBounds below them.
 // Pure: no GL, no clocks, no I/O. Single-threaded.
 
-#include <terrain/roam/block_bounds.h>
 #include <terrain/roam/block_grains.h>
 #include <terrain/roam/block_pool.h>
+#include <terrain/roam/bounds_update.h>
 #include <terrain/roam/camera.h>
 #include <terrain/roam/detail_blocks.h>
 #include <terrain/roam/diamond_id.h>
@@ -64,14 +64,12 @@
 #include <terrain/roam/lattice.h>
 #include <terrain/roam/packed_bounds.h>
 #include <terrain/roam/split_merge.h>
-#include <terrain/roam/stale_blocks.h>
 #include <terrain/roam/tessellator_options.h>
 #include <terrain/roam/tile_mesh.h>
 #include <terrain/roam/tile_vertex_arrays.h>
 #include <terrain/terrain.h>
 
 #include <cstdint>
-#include <limits>
 #include <span>
 #include <vector>
 
@@ -164,7 +162,7 @@ class Tessellator {
     std::int32_t blockCount() const { return blocks_.count(); }
     /// Resident blocks whose bounds wait for a frame's budget since an op (may count a few
     /// evicted since).
-    std::int64_t staleBlockCount() const { return static_cast<std::int64_t>(stale_.size()); }
+    std::int64_t staleBlockCount() const { return static_cast<std::int64_t>(bounds_.staleCount()); }
     /// Resident chunks of each grain (grain 0: one per block).
     std::array<std::int32_t, kGrains> grainCounts() const;
     /// Resident blocks that cannot be evicted now (some diamond refers to them); O(pool).
@@ -212,7 +210,6 @@ class Tessellator {
     /// refuses); marks the block used this frame.
     DiamondId resolve(LatticePoint p);
     LatticePoint pointOf(DiamondId id) const;
-    std::int64_t heightAt(LatticePoint p) const;
     static int grainOfId(DiamondId id) { return DiamondSpace::grainOfId(id); }
     /// The block a pooled id belongs to.
     std::int32_t blockOfId(DiamondId id) const {
@@ -224,18 +221,7 @@ class Tessellator {
     }
     std::uint8_t& state(DiamondId id) { return space_.state(id); }
     std::uint8_t state(DiamondId id) const { return space_.state(id); }
-    /// A diamond's bounds: stored for the grid's and the blocks' diamonds; a centre's come from
-    /// the records of its 3 x 3 cells (cached while a whole-map pass runs).
-    Bounds bounds(DiamondId id) const {
-        if (space_.isCentre(id)) {
-            const std::int32_t record = space_.recordOfCentre(id);
-            return centre_cache_.empty() ? centreBounds(record) : centre_cache_[idx(record)];
-        }
-        return space_.storedBounds(id);
-    }
-    /// Packed and unpacked like every stored bound (BoundsCodec::outward), so that the
-    /// centre's children, stored packed, stay within it.
-    Bounds centreBounds(std::int32_t record) const;
+    Bounds bounds(DiamondId id) const { return bounds_.bounds(id); }
     /// Marks the pooled id's chunk and block used in this epoch (never evicted in it).
     void markUsed(DiamondId id) {
         const int g = grainOfId(id);
@@ -256,14 +242,12 @@ class Tessellator {
     std::int32_t materialise(std::int32_t record);
     /// Gives `block` its grain `g` (1 or 2) with its bounds and heights.
     void materialiseGrain(std::int32_t block, int g);
-    /// Computes the bounds and heights of the grains of `block` in `grain_mask` (bit g).
-    void boundGrains(std::int32_t block, unsigned grain_mask);
     /// Before a top-down build at `threshold`: makes the blocks and grains it will need, known
     /// from the records and then from the grains just made, in BlockBounds passes (not one block
     /// at a time as the build meets them), while the pool has room.
     void prefetchBlocks(const ViewMetric& m, double threshold);
-    /// During a prefetch pass: the finer grains of the pass's i-th block that the build will need.
-    void prefetchGrains(std::size_t i, std::int32_t block);
+    /// During prefetchBlocks' bounds pass: makes the finer grains the build will need.
+    struct PrefetchGrains;
     bool evictOne();
     /// Releases blocks (or their finer grains) idle for options_.detail_block_idle_frames, a
     /// few slots per frame.
@@ -278,48 +262,13 @@ class Tessellator {
     /// The triangle cap or the pool refused a split this frame.
     void refuse(bool pool);
 
-    // bounds
-    /// A grid diamond's bounds from its vertices and children; whether they changed.
-    bool computeBounds(const Diamond& d, DiamondId id);
-    /// Stores a grid diamond's bounds; whether they changed.
-    bool storeBounds(DiamondId id, float delta, float zlo, float zhi);
-    /// Conservative bound (metres) of a detail cell (0 for a cell without a record).
-    float cellCap(std::int32_t cx, std::int32_t cy) const;
-    /// The largest cellCap and the vertex range (fine units) of the 3 x 3 cells around a cell,
-    /// those of the padded grid: everything a diamond of that cell can refine into.
-    struct WindowBound {
-        float cap = 0.0f;
-        double lo = std::numeric_limits<double>::infinity();
-        double hi = -std::numeric_limits<double>::infinity();
-    };
-    WindowBound windowBound(std::int32_t cx, std::int32_t cy) const;
-    /// windowBound as a diamond's bounds (cap; range widened by it), packed and unpacked like
-    /// every stored bound; zlo > zhi if no cell of the window has a surface.
-    Bounds windowBounds(std::int32_t cx, std::int32_t cy) const;
-    /// Bounds and heights of every resident grain of `blocks` (BlockBounds, in passes over
-    /// squares of cells). With `collect`, ids whose bounds changed go to recomputed_.
-    void boundBlocks(std::span<const std::int32_t> blocks, bool collect);
-    /// Stores what the last BlockBounds pass computed for its i-th cell into `block`'s grains in
-    /// `grain_mask`; returns whether any stored bound changed (ids to recomputed_ if `collect`).
-    void storeGrains(std::size_t i, std::int32_t block, unsigned grain_mask, bool collect);
-    /// Stores heights_scratch_ (a cell's 17 x 17) into `block`'s resident grains in the mask.
-    void storeHeights(std::int32_t block, unsigned grain_mask);
-    /// The heights of the blocks still stale (end of update(): before anything draws them).
-    void freshenHeights();
-    /// Recomputes the bounds of up to `budget` stale blocks (re-queueing candidates whose bounds
-    /// moved); returns how many.
-    std::int64_t drainStale(std::int64_t budget);
-    /// Bounds after the surface of `cells` changed (everything when `all`): resident blocks that
-    /// depend on them, centres, then the grid, finest level first; with `collect`, the ids of
-    /// those whose bounds changed go to recomputed_ (candidates to refresh).
-    void recomputeBounds(CellRect cells, bool all, bool collect);
+    // priorities (bounds_ keeps the bounds)
     Box boxOf(const Diamond& d, const Bounds& b) const;
     double priority(const ViewMetric& m, const Diamond& d, DiamondId id) const;
     double priority(const ViewMetric& m, const Diamond& d, const Bounds& b) const;
     /// An upper bound on priority() for a diamond whose block is not resident, from its cells'
     /// records (no heights needed).
     double recordPriority(const ViewMetric& m, const Diamond& d) const;
-    double childBounds(LatticePoint c, double& zlo, double& zhi) const;
 
     // mesh
     bool canActivate(const Diamond& d, DiamondId id) const;
@@ -383,6 +332,8 @@ class Tessellator {
     /// Replaces rectangles that overlap enough by their union (in place; order not kept).
     static void mergeOverlapping(std::vector<CellRect>& rects);
     void finishFrame(const ViewMetric& m, FrameStats& stats);
+    /// Re-bounds up to `budget` stale blocks and re-offers the candidates whose bounds moved.
+    std::int64_t drainStale(std::int64_t budget);
 
     const Terrain* terrain_;
     TessellatorOptions options_;
@@ -400,29 +351,13 @@ class Tessellator {
 
     // per diamond: eager ids, and pooled ones (by grain)
     DiamondSpace space_;
-    std::vector<Bounds> centre_cache_; ///< every centre's bounds, during a whole-map pass
-    /// The centres' bounds over centre_rect_ before an op's change (delta -1: no record).
-    std::vector<Bounds> centre_before_;
-    CellRect centre_rect_{};
 
     // the block pool
     BlockPool pool_;
     std::vector<BlockPool::Release> releases_; ///< the idle sweep's
-    BlockBounds block_bounds_;
-    std::vector<std::int32_t> pass_;
-    StaleBlocks stale_;                     ///< blocks an op left stale, oldest first
-    std::vector<std::int32_t> heights_due_; ///< freshenHeights'
-    std::vector<DetailBlocks::CellXY> pass_cells_;
-    std::vector<std::int32_t> pass_blocks_;
-    std::array<std::int64_t, kBlockVertices> heights_scratch_{};
+    std::vector<std::int32_t> made_;           ///< prefetchBlocks' and materialiseAll's blocks
     bool defer_bounds_ = false; ///< materialiseAll, prefetch: bounds in passes at the end
-    const ViewMetric* prefetch_view_ = nullptr; ///< during prefetchBlocks' pass
-    double prefetch_threshold_ = 0.0;
     std::vector<std::pair<double, std::int32_t>> prefetch_; ///< priority, record
-    /// The cell block_bounds_ last computed alone, and the terrain generation it saw.
-    DetailBlocks::CellXY bounded_cell_{};
-    std::uint64_t bounded_generation_ = 0;
-    std::uint64_t terrain_generation_ = 0; ///< bumped by every terrainChanged()
     std::uint64_t frame_ = 0;
     /// Blocks used in the current epoch are never evicted (ids of them may be held on the
     /// stack); a frame starts one, and so does a best-first pass (nothing is held then).
@@ -445,9 +380,10 @@ class Tessellator {
     std::vector<std::uint64_t> tile_snug_; ///< per tile: the frame its mesh last had no slack
     TileVertexArrays vertices_;
 
+    BoundsUpdate bounds_{blocks_, pool_, space_, vertices_};
+
     // split/merge
     SplitMerge policy_; ///< the candidates, the threshold (after space_: it holds a reference)
-    std::vector<DiamondId> recomputed_;
     std::vector<CellRect> merged_;
     std::vector<std::int32_t> removing_;
     std::vector<std::int32_t> removed_;
