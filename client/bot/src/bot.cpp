@@ -11,9 +11,12 @@
 #include <array>
 #include <asio.hpp>
 #include <chrono>
+#include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <thread>
+#include <vector>
 
 namespace terrain::bot {
 
@@ -56,111 +59,15 @@ struct Renderer {
     std::unique_ptr<render::TerrainRenderer> terrain;
     std::unique_ptr<render::GpuTimer> timer;
 };
-} // namespace
 
-Result<BotReport> runBot(const BotConfig& config) {
-    BotReport report;
-    report.name = config.name;
-    asio::io_context io;
-    client::Replica replica;
-    if (config.genesis)
-        if (Status s = replica.loadGenesis(*config.genesis); !s)
-            return s.error();
-    client::ConnectionConfig cc;
-    cc.host = config.host;
-    cc.port = config.port;
-    cc.token = config.token;
-    cc.client_name = "terrain-bot/" + config.name;
-    cc.pacing.ops_per_frame = config.ops_per_frame;
-    auto connection = std::make_shared<client::Connection>(io, cc, replica);
-    int answers_pending = 0;
-    connection->on_deform_reply = [&](const client::DeformAnswer& a) {
-        --answers_pending;
-        if (a.accepted)
-            ++report.craters_accepted;
-        else
-            ++report.craters_refused;
-    };
-    Clock::time_point last_op = Clock::now();
-    connection->on_applied = [&](std::uint64_t) { last_op = Clock::now(); };
-    connection->start();
-    // every way out closes the connection while the replica and io_context it uses still live
-    struct StopOnExit {
-        client::Connection& c;
-        ~StopOnExit() { c.stop(); }
-    } stop_on_exit{*connection};
-
-    const Clock::time_point join_start = Clock::now();
-    // a final refusal (a bad token) closes the connection for good: no point waiting
-    pollUntil(io, config.join_timeout_seconds, [&] {
-        connection->applyAllArrived(); // no frames yet
-        return connection->synced() || connection->state() == client::Connection::State::kClosed;
-    });
-    if (!connection->synced()) {
-        const std::string why = connection->lastDisconnect();
-        return makeError(
-            ErrorCode::kIo, "could not join " + config.host + ":" + std::to_string(config.port) +
-                                " within " + seconds(config.join_timeout_seconds) + " s" +
-                                (why.empty() ? "" : ": " + why));
-    }
-    report.join_seconds = secondsSince(join_start);
-
-    ScriptOptions script_options = config.script;
-    BotScript script(script_options, replica.terrain().spec());
-    client::TerrainViewOptions vo; // the tessellator starts from the state just joined
-    vo.tessellation.tau_pixels = config.tau_pixels;
-    vo.tessellation.max_triangles = config.max_triangles;
-    if (config.upload_budget_bytes >= 0)
-        vo.tessellation.upload_budget_bytes = config.upload_budget_bytes;
-    vo.budget.target_ms = config.frame_ms >= 0.0 ? config.frame_ms
-                          : config.render        ? kDefaultRenderFrameMs
-                                                 : 0.0;
-    vo.budget.max_triangles = config.max_triangles;
-    client::TerrainView view(replica, vo);
-    roam::Tessellator& tess = view.tessellator(); // the renderer takes its changes
-
-    Renderer gpu;
-    if (config.render) {
-        render::ContextOptions co;
-        co.debug = config.gl_debug;
-        auto context = render::createOffscreenContext(
-            config.backend, script_options.viewport_width, script_options.viewport_height, co);
-        if (!context)
-            return context.error();
-        gpu.context = std::move(*context);
-        render::RendererOptions ro;
-        ro.upload = config.upload_path;
-        ro.validate = config.validate_buffers;
-        auto renderer = render::TerrainRenderer::create(*gpu.context, ro);
-        if (!renderer)
-            return renderer.error();
-        gpu.terrain = std::move(*renderer);
-        gpu.timer = std::make_unique<render::GpuTimer>(gpu.context->gl());
-        report.renderer = gpu.context->describe();
-        report.upload_path = render::toString(gpu.terrain->uploadPath());
-        if (!config.png_dir.empty())
-            std::filesystem::create_directories(config.png_dir);
-    }
-    // a PNG that cannot be written is reported; the run goes on
-    const auto writePng = [&](const std::string& file) {
-        const std::filesystem::path path = config.png_dir / file;
-        const io::RgbImage image = gpu.context->readPixels();
-        if (file == "after.png")
-            report.after_holes = render::countSkyHoles(image, render::RenderOptions{}.sky).count;
-        Status s = io::writeRgbPng(path, image);
-        if (s)
-            report.pngs.push_back(path.string());
-        else if (report.error.empty())
-            report.error = s.error().message;
-    };
-
+/// Per frame: where the time went and what the mesh was.
+struct FrameSamples {
     std::vector<double> tessellate_ms;
     std::vector<double> render_ms;
     std::vector<double> sync_ms;
     std::vector<double> draw_ms;
     std::vector<double> present_ms;
     std::vector<double> gpu_ms;
-    std::array<double, render::GpuTimer::kQueries> gpu_done{};
     std::vector<double> frame_ms;
     std::vector<double> triangles;
     std::vector<double> visible;
@@ -168,170 +75,334 @@ Result<BotReport> runBot(const BotConfig& config) {
     std::vector<double> copies;
     std::vector<double> caps;
     std::vector<double> error_bounds;
-    // what the replica changed goes to the tessellator (the renderer reads it from there)
-    const auto absorb = [&] { view.absorb(); };
-    const auto frame = [&](const roam::Camera& camera) {
+};
+
+/// One bot's run, phase by phase: join, open the renderer, fly the script's frames (a crater
+/// at the script's clicks), settle, report.
+class BotRun {
+  public:
+    explicit BotRun(const BotConfig& config) : config_(config) { report_.name = config.name; }
+    BotRun(const BotRun&) = delete;
+    BotRun& operator=(const BotRun&) = delete;
+    /// Every way out closes the connection while the replica and io_context it uses still live.
+    ~BotRun() {
+        if (connection_)
+            connection_->stop();
+    }
+
+    Result<BotReport> run() {
+        if (Status s = join(); !s)
+            return s.error();
+        makeView();
+        if (config_.render)
+            if (Status s = openRenderer(); !s)
+                return s.error();
+        const Clock::time_point run_start = Clock::now();
+        fly();
+        const bool settled = settle();
+        // the after frame from the first frame's camera, so before.png and after.png compare
+        frame(script_->camera(0, replica_.terrain()));
+        connection_->applyAllArrived(); // the report speaks for every op received
+        if (gpu_.terrain && !config_.png_dir.empty())
+            writePng("after.png");
+        report_.seconds = secondsSince(run_start);
+        finishReport(settled);
+        return report_;
+    }
+
+  private:
+    /// Loads the genesis (if given), connects and waits until the replica is synced.
+    Status join() {
+        if (config_.genesis)
+            if (Status s = replica_.loadGenesis(*config_.genesis); !s)
+                return s;
+        client::ConnectionConfig cc;
+        cc.host = config_.host;
+        cc.port = config_.port;
+        cc.token = config_.token;
+        cc.client_name = "terrain-bot/" + config_.name;
+        cc.pacing.ops_per_frame = config_.ops_per_frame;
+        connection_ = std::make_shared<client::Connection>(io_, cc, replica_);
+        connection_->on_deform_reply = [this](const client::DeformAnswer& a) {
+            --answers_pending_;
+            if (a.accepted)
+                ++report_.craters_accepted;
+            else
+                ++report_.craters_refused;
+        };
+        last_op_ = Clock::now();
+        connection_->on_applied = [this](std::uint64_t) { last_op_ = Clock::now(); };
+        connection_->start();
+        const Clock::time_point join_start = Clock::now();
+        // a final refusal (a bad token) closes the connection for good: no point waiting
+        pollUntil(io_, config_.join_timeout_seconds, [&] {
+            connection_->applyAllArrived(); // no frames yet
+            return connection_->synced() ||
+                   connection_->state() == client::Connection::State::kClosed;
+        });
+        if (!connection_->synced()) {
+            const std::string why = connection_->lastDisconnect();
+            return makeError(
+                ErrorCode::kIo,
+                "could not join " + config_.host + ":" + std::to_string(config_.port) + " within " +
+                    seconds(config_.join_timeout_seconds) + " s" + (why.empty() ? "" : ": " + why));
+        }
+        report_.join_seconds = secondsSince(join_start);
+        return Ok{};
+    }
+
+    /// The script over the world joined, and the view: the tessellator starts from that state.
+    void makeView() {
+        script_.emplace(config_.script, replica_.terrain().spec());
+        client::TerrainViewOptions vo;
+        vo.tessellation.tau_pixels = config_.tau_pixels;
+        vo.tessellation.max_triangles = config_.max_triangles;
+        if (config_.upload_budget_bytes >= 0)
+            vo.tessellation.upload_budget_bytes = config_.upload_budget_bytes;
+        vo.budget.target_ms = config_.frame_ms >= 0.0 ? config_.frame_ms
+                              : config_.render        ? kDefaultRenderFrameMs
+                                                      : 0.0;
+        vo.budget.max_triangles = config_.max_triangles;
+        view_ = std::make_unique<client::TerrainView>(replica_, vo);
+    }
+
+    Status openRenderer() {
+        render::ContextOptions co;
+        co.debug = config_.gl_debug;
+        auto context = render::createOffscreenContext(
+            config_.backend, config_.script.viewport_width, config_.script.viewport_height, co);
+        if (!context)
+            return context.error();
+        gpu_.context = std::move(*context);
+        render::RendererOptions ro;
+        ro.upload = config_.upload_path;
+        ro.validate = config_.validate_buffers;
+        auto renderer = render::TerrainRenderer::create(*gpu_.context, ro);
+        if (!renderer)
+            return renderer.error();
+        gpu_.terrain = std::move(*renderer);
+        gpu_.timer = std::make_unique<render::GpuTimer>(gpu_.context->gl());
+        report_.renderer = gpu_.context->describe();
+        report_.upload_path = render::toString(gpu_.terrain->uploadPath());
+        if (!config_.png_dir.empty())
+            std::filesystem::create_directories(config_.png_dir);
+        return Ok{};
+    }
+
+    /// A PNG that cannot be written is reported; the run goes on.
+    void writePng(const std::string& file) {
+        const std::filesystem::path path = config_.png_dir / file;
+        const io::RgbImage image = gpu_.context->readPixels();
+        if (file == "after.png")
+            report_.after_holes = render::countSkyHoles(image, render::RenderOptions{}.sky).count;
+        Status s = io::writeRgbPng(path, image);
+        if (s)
+            report_.pngs.push_back(path.string());
+        else if (report_.error.empty())
+            report_.error = s.error().message;
+    }
+
+    /// What arrived this frame (the connection's share) to the replica and on to the view.
+    void absorb() { view_->absorb(); }
+
+    /// A frame: take what arrived, tessellate, draw and present (when rendering), steer the
+    /// triangle cap on the frame's time.
+    void frame(const roam::Camera& camera) {
+        const roam::Tessellator& tess = view_->tessellator();
         const Clock::time_point t0 = Clock::now();
-        io.poll();
-        io.restart();
-        connection->applyArrived(); // this frame's share of what arrived
+        io_.poll();
+        io_.restart();
+        connection_->applyArrived(); // this frame's share of what arrived
         absorb();
         const Clock::time_point t1 = Clock::now();
-        caps.push_back(static_cast<double>(tess.options().max_triangles));
-        const roam::FrameStats& fs = view.update(camera);
-        tessellate_ms.push_back(msSince(t1));
-        error_bounds.push_back(fs.error_bound_pixels);
-        triangles.push_back(static_cast<double>(fs.triangles));
-        visible.push_back(static_cast<double>(fs.visible_triangles));
-        if (gpu.terrain) {
-            const Clock::time_point t2 = Clock::now();
-            gpu.timer->begin();
-            const render::UploadStats up = gpu.terrain->sync(tess, replica.terrain());
-            const Clock::time_point t3 = Clock::now();
-            gpu.terrain->draw(tess, camera, render::RenderOptions{});
-            gpu.timer->end();
-            const Clock::time_point t4 = Clock::now();
-            gpu.context->present();
-            render_ms.push_back(msSince(t2));
-            sync_ms.push_back(msBetween(t2, t3));
-            draw_ms.push_back(msBetween(t3, t4));
-            present_ms.push_back(msSince(t4));
-            const std::size_t done = gpu.timer->collect(gpu_done);
-            gpu_ms.insert(
-                gpu_ms.end(), gpu_done.begin(),
-                gpu_done.begin() + static_cast<std::ptrdiff_t>(done));
-            uploads.push_back(static_cast<double>(up.bytes()));
-            copies.push_back(
-                static_cast<double>(up.vertex_uploads + up.index_uploads + up.grown_buffers));
-        }
-        frame_ms.push_back(msSince(t0));
+        samples_.caps.push_back(static_cast<double>(tess.options().max_triangles));
+        const roam::FrameStats& fs = view_->update(camera);
+        samples_.tessellate_ms.push_back(msSince(t1));
+        samples_.error_bounds.push_back(fs.error_bound_pixels);
+        samples_.triangles.push_back(static_cast<double>(fs.triangles));
+        samples_.visible.push_back(static_cast<double>(fs.visible_triangles));
+        if (gpu_.terrain)
+            draw(camera);
+        samples_.frame_ms.push_back(msSince(t0));
         // the GPU works behind the CPU: where its time is known, the budget steers on the
         // larger of the two
-        const double gpu_frame = gpu.timer && gpu.timer->latestMs() ? *gpu.timer->latestMs() : 0.0;
-        view.steer(std::max(frame_ms.back(), gpu_frame));
-    };
+        const double gpu_frame =
+            gpu_.timer && gpu_.timer->latestMs() ? *gpu_.timer->latestMs() : 0.0;
+        view_->steer(std::max(samples_.frame_ms.back(), gpu_frame));
+    }
 
-    const Clock::time_point run_start = Clock::now();
-    const int frames = script_options.frames;
-    for (int f = 0; f < frames; ++f) {
-        const roam::Camera camera = script.camera(f, replica.terrain());
-        frame(camera);
-        if (f == 0 && gpu.terrain && !config.png_dir.empty())
-            writePng("before.png");
-        if (gpu.terrain && config.png_every > 0 && f % config.png_every == 0 &&
-            !config.png_dir.empty()) {
-            char name[32];
-            std::snprintf(name, sizeof name, "frame_%05d.png", f);
-            writePng(name);
-        }
-        if (f % 30 == 0)
-            connection->ping();
-        if (script.craterDue(f)) {
-            // a click: the ray through the shot's pixel, against the replica's true surface
-            const CraterShot shot = script.shot(f);
-            const std::optional<OpRequest> request = client::craterAtPixel(
-                replica.terrain(), camera, shot.pixel_x, shot.pixel_y,
-                {.radius = shot.radius, .depth = shot.depth, .rim = 0.3});
-            if (!request) {
-                ++report.craters_missed;
-                continue;
+    void draw(const roam::Camera& camera) {
+        roam::Tessellator& tess = view_->tessellator(); // the renderer takes its changes
+        const Clock::time_point t2 = Clock::now();
+        gpu_.timer->begin();
+        const render::UploadStats up = gpu_.terrain->sync(tess, replica_.terrain());
+        const Clock::time_point t3 = Clock::now();
+        gpu_.terrain->draw(tess, camera, render::RenderOptions{});
+        gpu_.timer->end();
+        const Clock::time_point t4 = Clock::now();
+        gpu_.context->present();
+        samples_.render_ms.push_back(msSince(t2));
+        samples_.sync_ms.push_back(msBetween(t2, t3));
+        samples_.draw_ms.push_back(msBetween(t3, t4));
+        samples_.present_ms.push_back(msSince(t4));
+        const std::size_t done = gpu_.timer->collect(gpu_done_);
+        samples_.gpu_ms.insert(
+            samples_.gpu_ms.end(), gpu_done_.begin(),
+            gpu_done_.begin() + static_cast<std::ptrdiff_t>(done));
+        samples_.uploads.push_back(static_cast<double>(up.bytes()));
+        samples_.copies.push_back(
+            static_cast<double>(up.vertex_uploads + up.index_uploads + up.grown_buffers));
+    }
+
+    /// The script's frames, with its PNGs, pings and crater clicks.
+    void fly() {
+        for (int f = 0; f < config_.script.frames; ++f) {
+            const roam::Camera camera = script_->camera(f, replica_.terrain());
+            frame(camera);
+            if (f == 0 && gpu_.terrain && !config_.png_dir.empty())
+                writePng("before.png");
+            if (gpu_.terrain && config_.png_every > 0 && f % config_.png_every == 0 &&
+                !config_.png_dir.empty()) {
+                char name[32];
+                std::snprintf(name, sizeof name, "frame_%05d.png", f);
+                writePng(name);
             }
-            connection->requestDeform(*request);
-            ++report.craters_requested;
-            ++answers_pending;
+            if (f % 30 == 0)
+                connection_->ping();
+            if (script_->craterDue(f))
+                click(f, camera);
         }
     }
 
-    // settle: every request answered and the op stream quiet, then the after frame from the
-    // first frame's camera (so before.png and after.png compare)
-    const roam::Camera first = script.camera(0, replica.terrain());
-    const Clock::time_point settle_start = Clock::now();
-    const auto timeLeft = [&] {
-        return config.settle_timeout_seconds - secondsSince(settle_start);
-    };
-    bool settled = pollUntil(io, timeLeft(), [&] {
-        connection->applyAllArrived(); // settling draws no frames
-        absorb();
-        return answers_pending <= 0;
-    });
-    if (settled && !config.barrier_dir.empty()) {
-        // every op this bot made is broadcast by now (the server acknowledges after it
-        // broadcasts): say so, and wait until every peer has said the same
-        std::filesystem::create_directories(config.barrier_dir);
-        std::ofstream(config.barrier_dir / (config.name + ".done")) << replica.seq() << "\n";
-        settled = pollUntil(io, timeLeft(), [&] {
-            connection->applyAllArrived();
-            absorb();
-            int done = 0;
-            std::error_code ec;
-            for (const auto& entry : std::filesystem::directory_iterator(config.barrier_dir, ec))
-                done += entry.path().extension() == ".done" ? 1 : 0;
-            return done >= config.peers;
-        });
+    /// A click: the ray through the shot's pixel, against the replica's true surface.
+    void click(int f, const roam::Camera& camera) {
+        const CraterShot shot = script_->shot(f);
+        const std::optional<OpRequest> request = client::craterAtPixel(
+            replica_.terrain(), camera, shot.pixel_x, shot.pixel_y,
+            {.radius = shot.radius, .depth = shot.depth, .rim = 0.3});
+        if (!request) {
+            ++report_.craters_missed;
+            return;
+        }
+        connection_->requestDeform(*request);
+        ++report_.craters_requested;
+        ++answers_pending_;
     }
-    if (settled)
-        settled = pollUntil(io, timeLeft(), [&] {
-            connection->applyAllArrived();
+
+    /// Every request answered, every peer done (with a barrier) and the op stream quiet, within
+    /// the settle timeout; whether it settled.
+    bool settle() {
+        const Clock::time_point settle_start = Clock::now();
+        const auto timeLeft = [&] {
+            return config_.settle_timeout_seconds - secondsSince(settle_start);
+        };
+        bool settled = pollUntil(io_, timeLeft(), [&] {
+            connection_->applyAllArrived(); // settling draws no frames
             absorb();
-            return secondsSince(last_op) >= config.settle_seconds && connection->synced();
+            return answers_pending_ <= 0;
         });
-    frame(first);
-    connection->applyAllArrived(); // the report speaks for every op received
-    if (gpu.terrain && !config.png_dir.empty())
-        writePng("after.png");
-    report.seconds = secondsSince(run_start);
-    report.frames = frames;
-    report.final_seq = replica.seq();
-    report.world_hash = replica.worldHash();
-    report.synced = settled && connection->synced();
-    report.ops_applied = replica.stats().ops_applied;
-    report.hash_mismatches = replica.stats().hash_mismatches;
-    report.repairs = replica.stats().repairs;
-    report.snapshots = replica.stats().snapshots;
-    report.genesis_deltas = connection->stats().genesis_deltas;
-    report.snapshot_bytes = connection->stats().snapshot_bytes;
-    report.tessellate_ms = Spread::of(tessellate_ms);
-    report.render_ms = Spread::of(render_ms);
-    report.sync_ms = Spread::of(sync_ms);
-    report.draw_ms = Spread::of(draw_ms);
-    report.present_ms = Spread::of(present_ms);
-    report.gpu_ms = Spread::of(gpu_ms);
-    report.gpu_frames = static_cast<int>(gpu_ms.size());
-    report.frame_ms = Spread::of(frame_ms);
-    report.triangles = Spread::of(triangles);
-    report.visible_triangles = Spread::of(visible);
-    report.triangle_cap = Spread::of(caps);
-    report.error_bound_pixels = Spread::of(error_bounds);
-    report.upload_bytes_per_frame = Spread::of(uploads);
-    report.copies_per_frame = Spread::of(copies);
-    if (gpu.terrain) {
-        report.vertex_bytes = gpu.terrain->totals().vertex_bytes;
-        report.index_bytes = gpu.terrain->totals().index_bytes;
-        report.upload_bytes = gpu.terrain->totals().bytes();
-        report.gpu_copies = gpu.terrain->ringStats().copies;
-        report.ring_waits = gpu.terrain->ringStats().waits;
-        if (config.validate_buffers) {
-            const render::ValidationReport& v = gpu.terrain->validation();
-            report.buffer_mismatches = static_cast<std::int64_t>(
+        if (settled && !config_.barrier_dir.empty()) {
+            // every op this bot made is broadcast by now (the server acknowledges after it
+            // broadcasts): say so, and wait until every peer has said the same
+            std::filesystem::create_directories(config_.barrier_dir);
+            std::ofstream(config_.barrier_dir / (config_.name + ".done")) << replica_.seq() << "\n";
+            settled = pollUntil(io_, timeLeft(), [&] {
+                connection_->applyAllArrived();
+                absorb();
+                int done = 0;
+                std::error_code ec;
+                for (const auto& entry :
+                     std::filesystem::directory_iterator(config_.barrier_dir, ec))
+                    done += entry.path().extension() == ".done" ? 1 : 0;
+                return done >= config_.peers;
+            });
+        }
+        if (settled)
+            settled = pollUntil(io_, timeLeft(), [&] {
+                connection_->applyAllArrived();
+                absorb();
+                return secondsSince(last_op_) >= config_.settle_seconds && connection_->synced();
+            });
+        return settled;
+    }
+
+    void finishReport(bool settled) {
+        BotReport& r = report_;
+        r.frames = config_.script.frames;
+        r.final_seq = replica_.seq();
+        r.world_hash = replica_.worldHash();
+        r.synced = settled && connection_->synced();
+        r.ops_applied = replica_.stats().ops_applied;
+        r.hash_mismatches = replica_.stats().hash_mismatches;
+        r.repairs = replica_.stats().repairs;
+        r.snapshots = replica_.stats().snapshots;
+        r.genesis_deltas = connection_->stats().genesis_deltas;
+        r.snapshot_bytes = connection_->stats().snapshot_bytes;
+        r.tessellate_ms = Spread::of(samples_.tessellate_ms);
+        r.render_ms = Spread::of(samples_.render_ms);
+        r.sync_ms = Spread::of(samples_.sync_ms);
+        r.draw_ms = Spread::of(samples_.draw_ms);
+        r.present_ms = Spread::of(samples_.present_ms);
+        r.gpu_ms = Spread::of(samples_.gpu_ms);
+        r.gpu_frames = static_cast<int>(samples_.gpu_ms.size());
+        r.frame_ms = Spread::of(samples_.frame_ms);
+        r.triangles = Spread::of(samples_.triangles);
+        r.visible_triangles = Spread::of(samples_.visible);
+        r.triangle_cap = Spread::of(samples_.caps);
+        r.error_bound_pixels = Spread::of(samples_.error_bounds);
+        r.upload_bytes_per_frame = Spread::of(samples_.uploads);
+        r.copies_per_frame = Spread::of(samples_.copies);
+        if (gpu_.terrain)
+            reportRenderer();
+        r.bytes_in = connection_->stats().bytes_in;
+        r.op_bytes_in = connection_->stats().op_bytes_in;
+        r.rtt_ms = connection_->roundTripSeconds() * 1000.0;
+        if (!settled)
+            r.error = "the world did not settle within " + seconds(config_.settle_timeout_seconds) +
+                      " s (" + std::to_string(answers_pending_) + " crater requests unanswered" +
+                      (config_.barrier_dir.empty() ? "" : ", or peers not done") + ")";
+    }
+
+    /// The renderer's totals, its buffers' validation and the GL's errors.
+    void reportRenderer() {
+        BotReport& r = report_;
+        r.vertex_bytes = gpu_.terrain->totals().vertex_bytes;
+        r.index_bytes = gpu_.terrain->totals().index_bytes;
+        r.upload_bytes = gpu_.terrain->totals().bytes();
+        r.gpu_copies = gpu_.terrain->ringStats().copies;
+        r.ring_waits = gpu_.terrain->ringStats().waits;
+        if (config_.validate_buffers) {
+            const render::ValidationReport& v = gpu_.terrain->validation();
+            r.buffer_mismatches = static_cast<std::int64_t>(
                 v.vertex_mismatches + v.index_mismatches + v.short_buffers);
-            if (!v.clean() && report.error.empty())
-                report.error = "buffers differ from the mesh: " + v.first_problem;
+            if (!v.clean() && r.error.empty())
+                r.error = "buffers differ from the mesh: " + v.first_problem;
         }
-        if (const render::GlDebugLog* log = gpu.context->debugLog()) {
-            report.gl_errors = static_cast<std::int64_t>(log->errors());
-            report.gl_messages = static_cast<std::int64_t>(log->messages());
-            if (log->errors() > 0 && report.error.empty())
-                report.error = "the GL reported " + std::to_string(log->errors()) + " errors";
+        if (const render::GlDebugLog* log = gpu_.context->debugLog()) {
+            r.gl_errors = static_cast<std::int64_t>(log->errors());
+            r.gl_messages = static_cast<std::int64_t>(log->messages());
+            if (log->errors() > 0 && r.error.empty())
+                r.error = "the GL reported " + std::to_string(log->errors()) + " errors";
         }
     }
-    report.bytes_in = connection->stats().bytes_in;
-    report.op_bytes_in = connection->stats().op_bytes_in;
-    report.rtt_ms = connection->roundTripSeconds() * 1000.0;
-    if (!settled)
-        report.error = "the world did not settle within " + seconds(config.settle_timeout_seconds) +
-                       " s (" + std::to_string(answers_pending) + " crater requests unanswered" +
-                       (config.barrier_dir.empty() ? "" : ", or peers not done") + ")";
-    return report;
+
+    const BotConfig& config_;
+    BotReport report_;
+    asio::io_context io_;
+    client::Replica replica_;
+    std::shared_ptr<client::Connection> connection_;
+    int answers_pending_ = 0;
+    Clock::time_point last_op_{};
+    std::optional<BotScript> script_;
+    std::unique_ptr<client::TerrainView> view_;
+    Renderer gpu_;
+    std::array<double, render::GpuTimer::kQueries> gpu_done_{};
+    FrameSamples samples_;
+};
+} // namespace
+
+Result<BotReport> runBot(const BotConfig& config) {
+    return BotRun(config).run();
 }
 
 } // namespace terrain::bot
