@@ -221,7 +221,11 @@ class Tessellator {
     }
     std::uint8_t& state(DiamondId id) { return space_.state(id); }
     std::uint8_t state(DiamondId id) const { return space_.state(id); }
-    Bounds bounds(DiamondId id) const { return bounds_.bounds(id); }
+    /// Stored for the grid's and the blocks' diamonds (read here directly: pricing reads it per
+    /// candidate); derived for a centre (bounds_).
+    Bounds bounds(DiamondId id) const {
+        return space_.isCentre(id) ? bounds_.bounds(id) : space_.storedBounds(id);
+    }
     /// Marks the pooled id's chunk and block used in this epoch (never evicted in it).
     void markUsed(DiamondId id) {
         const int g = grainOfId(id);
