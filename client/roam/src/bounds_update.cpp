@@ -107,8 +107,7 @@ DiamondId BoundsUpdate::eagerId(LatticePoint p) const {
     if (!insideMap(p))
         return kNoDiamond;
     if (isGridVertex(p))
-        return static_cast<DiamondId>(p.y / kLatticePerCell) * static_cast<DiamondId>(grid_w_) +
-               static_cast<DiamondId>(p.x / kLatticePerCell);
+        return gridVertexId(p, grid_w_);
     TERRAIN_ASSERT(p.x % kLatticePerCell == kCentreLocal && p.y % kLatticePerCell == kCentreLocal);
     const std::int32_t record = blocks_.recordOf(p.x / kLatticePerCell, p.y / kLatticePerCell);
     return record < 0 ? kNoDiamond : space_.centreId(record);

@@ -23,8 +23,7 @@ DiamondId Tessellator::idOf(LatticePoint p) const {
     if (!insideMap(p))
         return kNoDiamond;
     if (isGridVertex(p))
-        return static_cast<DiamondId>(p.y / kLatticePerCell) * static_cast<DiamondId>(grid_w_) +
-               static_cast<DiamondId>(p.x / kLatticePerCell);
+        return gridVertexId(p, grid_w_);
     const std::int32_t record = blocks_.recordOf(p.x / kLatticePerCell, p.y / kLatticePerCell);
     if (record < 0)
         return kNoDiamond;

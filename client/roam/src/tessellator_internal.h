@@ -40,6 +40,12 @@ inline constexpr std::uint64_t kPoolQuietFrames = 30;
 inline constexpr std::size_t kRekeyFrames = 8;
 inline constexpr std::size_t kRekeyAtOnce = 16384; ///< or at least this many per frame
 
+/// The id of grid vertex `p` (diamond_id.h: the grid's ids come first, row by row).
+inline std::uint32_t gridVertexId(LatticePoint p, std::int32_t grid_w) {
+    return static_cast<std::uint32_t>(p.y / kLatticePerCell) * static_cast<std::uint32_t>(grid_w) +
+           static_cast<std::uint32_t>(p.x / kLatticePerCell);
+}
+
 /// The tile a cell belongs to; -1 for the virtual cells past the grid.
 inline std::int32_t tileOfCell(DetailBlocks::CellXY c, const WorldSpec& spec) {
     if (c.x < 0 || c.y < 0 || c.x >= spec.tilesX() * kTileCells ||
