@@ -630,6 +630,8 @@ runMap(const Settings& s, const std::string& map_name, Images* images, CsvFiles&
                     writeRun(r, csv.runs, runs);
                 }
     }
+    if (images != nullptr)
+        images->painter.reset(); // the map's renderer goes with it
     return cracked;
 }
 

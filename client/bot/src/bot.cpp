@@ -99,9 +99,11 @@ class BotRun {
                 return s.error();
         const Clock::time_point run_start = Clock::now();
         fly();
+        // the after frame from the first frame's camera (placed on the ground as it is before
+        // settling), so before.png and after.png compare
+        const roam::Camera first = script_->camera(0, replica_.terrain());
         const bool settled = settle();
-        // the after frame from the first frame's camera, so before.png and after.png compare
-        frame(script_->camera(0, replica_.terrain()));
+        frame(first);
         connection_->applyAllArrived(); // the report speaks for every op received
         if (gpu_.terrain && !config_.png_dir.empty())
             writePng("after.png");
