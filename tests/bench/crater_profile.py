@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Where a battle's crater frame goes: runs client_battle_bench under `perf record` and groups
 the self time by the tessellator part it is spent in (BENCHMARKS.md, "Where a battle's crater
-frame goes"). Grouping is by symbol name; an inlined callee counts where it was inlined.
+frame goes"). Grouping is by symbol name (the function's own, before its parameters); an inlined
+callee counts where it was inlined.
 
     python3 tests/bench/crater_profile.py [--flight hover|cross] [--bench build/release/tests/client_battle_bench]
 """
@@ -22,11 +23,18 @@ GROUPS = [
      ["TileMesh", "idOf", "parentsActive", "vertexAt", "hasActiveChild", "activate",
       "deactivate", "splitTriangles", "indicesOf", "splitGain", "canActivate", "resolve",
       "tileKey", "emit", "markUsed", "DiamondSpace", "TileVertexArrays", "BlockPool",
-      "materialise", "attachGrain"]),
+      "materialise", "attachGrain", "TileEmitter", "LatticeIds"]),
     ("terrain apply, both sides",
      ["gridNumerators", "PointwiseOp", "findPatch", "Terrain::", "XXH3", "lattice",
       "DetailBlocks", "patch", "Patch"]),
 ]
+
+
+def classify(text):
+    for name, keys in GROUPS:
+        if any(k in text for k in keys):
+            return name
+    return None
 
 
 def main():
@@ -54,10 +62,10 @@ def main():
         if not m:
             continue
         share, symbol = float(m.group(1)), m.group(2)
-        for name, keys in GROUPS:
-            if any(k in symbol for k in keys):
-                shares[name] += share
-                break
+        # the function's own name first (a parameter type names another part), then the rest
+        group = classify(symbol.split("(")[0]) or classify(symbol)
+        if group:
+            shares[group] += share
         else:
             other += share
     for name, share in shares.items():

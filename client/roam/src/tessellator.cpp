@@ -23,22 +23,9 @@ Tessellator::Tessellator(const Terrain& terrain, const TessellatorOptions& optio
 
 void Tessellator::adoptSpec() {
     spec_ = terrain_->spec();
-    metres_per_lattice_ = spec_.spacingMetres() / kLatticePerCell;
-    metres_per_fine_ = spec_.metresPerUnit() / static_cast<double>(kFineUnitsPerQuantum);
-    grid_w_ = spec_.paddedWidth();
-    grid_h_ = spec_.paddedHeight();
-    max_x_ = (grid_w_ - 1) * kLatticePerCell;
-    max_y_ = (grid_h_ - 1) * kLatticePerCell;
-    real_x_ = spec_.cellsX() * kLatticePerCell;
-    real_y_ = spec_.cellsY() * kLatticePerCell;
-    grid_count_ = static_cast<std::uint32_t>(grid_w_) * static_cast<std::uint32_t>(grid_h_);
-    const std::size_t tiles = idx(spec_.tileCount());
-    tiles_.clear();
-    tiles_.resize(tiles);
-    tile_visible_.assign(tiles, 0);
-    tile_snug_.assign(tiles, 0);
-    vertices_.reset(tiles);
-    space_.reset(grid_count_, BoundsCodec(spec_.metresPerUnit()));
+    ids_.reset(LatticeGeometry::of(spec_));
+    emitter_.reset(spec_);
+    space_.reset(geo().grid_count, BoundsCodec(spec_.metresPerUnit()));
     pool_.clear();
     pool_.restartClock();
     policy_.forgetIds();
@@ -132,12 +119,7 @@ void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
     bookkeeping_ = false;
     space_.clearStates();
     policy_.clearCandidates();
-    std::int64_t roots = 0;
-    for (std::int32_t tile = 0; tile < tileCount(); ++tile) {
-        const Diamond root = tileRoot(tile);
-        for (const LatticePoint a : apexes(root))
-            roots += emitted(triangleOf(root, a)) ? 1 : 0;
-    }
+    const std::int64_t roots = emitter_.rootTriangles();
     triangles_ = roots;
     refused_by_cap_ = false;
     // a cap that bound before (the threshold is above tau) most likely binds again: go
@@ -146,7 +128,7 @@ void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
     prefetchBlocks(m, policy_.threshold());
     policy_.setThreshold(options_.tau_pixels);
     for (std::int32_t tile = 0; tile < tileCount() && !capped; ++tile) {
-        const Diamond root = tileRoot(tile);
+        const Diamond root = emitter_.tileRoot(tile);
         for (const LatticePoint a : apexes(root))
             refineTopDown(m, triangleOf(root, a), stats, capped);
     }
@@ -165,13 +147,13 @@ void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
         policy_.setThreshold(std::max(options_.tau_pixels, refineBestFirst(m, target, stats)));
     }
     for (std::int32_t tile = 0; tile < tileCount(); ++tile)
-        emitTile(tile);
+        emitter_.emitTile(tile);
     bookkeeping_ = true;
     stats.rebuilt = true;
     if (options_.mode != TessellationMode::kSplitMerge)
         return;
     for (std::int32_t tile = 0; tile < tileCount(); ++tile) {
-        const Diamond root = tileRoot(tile);
+        const Diamond root = emitter_.tileRoot(tile);
         for (const LatticePoint a : apexes(root))
             collectCandidates(triangleOf(root, a));
     }
@@ -190,41 +172,7 @@ bool Tessellator::budgetSpent(FrameStats& stats) const {
 }
 
 void Tessellator::finishFrame(const ViewMetric& m, FrameStats& stats) {
-    std::uint64_t written = 0;
-    for (std::int32_t tile = 0; tile < tileCount(); ++tile) {
-        TileMesh& mesh = tiles_[idx(tile)];
-        mesh.fillHoles();
-        written += mesh.counters().index_bytes_written;
-        const Diamond root = tileRoot(tile);
-        const DiamondId id = idOf(root.centre);
-        const std::int32_t tx = tile % spec_.tilesX();
-        const std::int32_t ty = tile / spec_.tilesX();
-        Box box;
-        box.lo = {
-            tx * kLatticePerTile * metres_per_lattice_, ty * kLatticePerTile * metres_per_lattice_,
-            bounds(id).zlo};
-        box.hi = {
-            std::min((tx + 1) * kLatticePerTile, real_x_) * metres_per_lattice_,
-            std::min((ty + 1) * kLatticePerTile, real_y_) * metres_per_lattice_, bounds(id).zhi};
-        const bool visible = m.intersectsFrustum(box);
-        tile_visible_[idx(tile)] = visible ? 1 : 0;
-        // memory follows the mesh: a tile whose list has stayed well below its peak for a while
-        // gives the capacity back (a few tiles a frame); one that returns to its peak, as in an
-        // orbit, keeps it
-        if (!mesh.hasSlack())
-            tile_snug_[idx(tile)] = frame_;
-        else if (
-            frame_ > tile_snug_[idx(tile)] + kTileSlackFrames &&
-            (frame_ + static_cast<std::uint64_t>(tile)) % kTileShrinkEvery == 0)
-            mesh.shrink();
-        stats.triangles += mesh.triangleCount();
-        if (visible)
-            stats.visible_triangles += mesh.triangleCount();
-        stats.index_bytes_total +=
-            static_cast<std::int64_t>(mesh.slotCount()) * TileMesh::kIndexBytesPerTriangle;
-    }
-    stats.index_bytes_written = static_cast<std::int64_t>(written - written_before_);
-    written_before_ = written;
+    emitter_.finishFrame(frame_, m, bounds_, stats);
     triangles_ = stats.triangles;
 }
 
@@ -240,7 +188,7 @@ FrameStats Tessellator::update(const Camera& camera) {
     upload_at_frame_start_ = uploadTotal();
     const double teleport = options_.teleport_metres > 0.0
                                 ? options_.teleport_metres
-                                : 8.0 * kLatticePerTile * metres_per_lattice_;
+                                : 8.0 * kLatticePerTile * geo().metres_per_lattice;
     const bool jumped = glm::length(camera.eye - last_eye_) > teleport;
     const bool lens_changed =
         m.errorScale() != last_error_scale_ || camera.near_plane != last_near_;
@@ -317,10 +265,8 @@ TessellatorMemory Tessellator::memory() const {
     for (std::size_t g = 0; g < kGrains; ++g)
         m.grains[g] = space.chunks[g] + pool.grains[g];
     m.heap = policy_.memoryBytes();
-    for (const TileMesh& t : tiles_)
-        m.meshes += t.memoryBytes();
-    m.meshes += vertices_.memoryBytes();
-    m.scratch = bounds_.memoryBytes() + morph_stamp_.capacity() * sizeof(std::uint32_t);
+    m.meshes = emitter_.memoryBytes();
+    m.scratch = bounds_.memoryBytes() + emitter_.scratchBytes();
     return m;
 }
 

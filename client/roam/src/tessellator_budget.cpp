@@ -53,7 +53,7 @@ double Tessellator::refineBestFirst(const ViewMetric& m, std::int64_t target, Fr
         std::push_heap(best_first_.begin(), best_first_.end(), by_priority);
     };
     for (std::int32_t tile = 0; tile < tileCount(); ++tile) {
-        const Diamond root = tileRoot(tile);
+        const Diamond root = emitter_.tileRoot(tile);
         for (const LatticePoint a : apexes(root))
             push(push, triangleOf(root, a));
     }

@@ -57,8 +57,7 @@ void Tessellator::evict(std::int32_t block) {
             releaseGrain(block, g);
     pool_.releaseBlock(block);
     bounds_.forget(block); // its place in the stale queue is skipped
-    if (const std::int32_t tile = tileOfCell(blocks_.cellOf(block)); tile >= 0)
-        vertices_.bumpVersion(tile);
+    emitter_.blockChanged(block);
     blocks_.release(block);
     ++evicted_;
 }
@@ -83,8 +82,7 @@ void Tessellator::sweepIdleBlocks() {
             continue;
         }
         releaseGrain(r.block, r.grain);
-        if (const std::int32_t tile = tileOfCell(blocks_.cellOf(r.block)); tile >= 0)
-            vertices_.bumpVersion(tile);
+        emitter_.blockChanged(r.block);
     }
 }
 
@@ -94,10 +92,8 @@ struct Tessellator::PoolMover final : BlockPool::Mover {
     void chunkMoved(int g, std::int32_t from, std::int32_t to) override {
         t_.space_.moveChunk(g, from, to);
         // the tile's vertex array keeps the segment: the same vertices, read from the new chunk
-        if (const std::int32_t segment = t_.pool_.segment(g, to); segment >= 0) {
-            const std::int32_t tile = t_.tileOfCell(t_.blocks_.cellOf(t_.pool_.blockOf(g, to)));
-            t_.vertices_.rechunk(tile, segment, to);
-        }
+        if (const std::int32_t segment = t_.pool_.segment(g, to); segment >= 0)
+            t_.emitter_.grainMoved(t_.pool_.blockOf(g, to), segment, to);
         t_.policy_.chunkMoved(g, from, to);
     }
 
@@ -171,7 +167,7 @@ void Tessellator::prefetchBlocks(const ViewMetric& m, double threshold) {
     // splits may need more: the build makes those one at a time, as before.
     prefetch_.clear();
     for (std::int32_t tile = 0; tile < tileCount(); ++tile) {
-        const Diamond root = tileRoot(tile);
+        const Diamond root = emitter_.tileRoot(tile);
         if (priority(m, root, idOf(root.centre)) <= threshold)
             continue; // nothing in the tile splits
         const std::int32_t x0 = (tile % spec_.tilesX()) * kTileCells;
