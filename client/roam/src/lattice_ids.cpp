@@ -39,34 +39,6 @@ Box LatticeGeometry::boxOf(const Diamond& d, const DiamondBounds& bounds) const 
     return b;
 }
 
-DiamondId LatticeIds::idOf(LatticePoint p) const {
-    if (!geo_.insideMap(p))
-        return kNoDiamond;
-    if (isGridVertex(p))
-        return gridVertexId(p, geo_.grid_w);
-    const std::int32_t record = blocks_.recordOf(p.x / kLatticePerCell, p.y / kLatticePerCell);
-    if (record < 0)
-        return kNoDiamond;
-    const std::int32_t k = p.x % kLatticePerCell;
-    const std::int32_t l = p.y % kLatticePerCell;
-    if (k == kCentreLocal && l == kCentreLocal)
-        return space_.centreId(record);
-    const std::int32_t block = blocks_.blockOfRecord(record);
-    if (block < 0)
-        return kNoDiamond;
-    return pooledId(block, static_cast<std::uint32_t>(l * kLatticePerCell + k));
-}
-
-DiamondId LatticeIds::pooledId(std::int32_t block, std::uint32_t local) const {
-    const int g = grainOf(
-        static_cast<std::int32_t>(local % kLatticePerCell),
-        static_cast<std::int32_t>(local / kLatticePerCell));
-    const std::int32_t chunk = pool_.chunkOf(block, g);
-    if (chunk < 0)
-        return kNoDiamond;
-    return DiamondSpace::pooledId(g, chunk, grainTables().diamond_slot[local]);
-}
-
 LatticePoint LatticeIds::pointOf(DiamondId id) const {
     if (id < geo_.grid_count) {
         const auto w = static_cast<DiamondId>(geo_.grid_w);

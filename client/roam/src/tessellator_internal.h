@@ -5,6 +5,7 @@
 
 #include <terrain/roam/detail_blocks.h>
 #include <terrain/roam/lattice.h>
+#include <terrain/roam/lattice_ids.h>
 #include <terrain/world_spec.h>
 
 #include <array>
@@ -18,8 +19,6 @@ inline constexpr std::int32_t kBaseVertices = kTileVertices * kTileVertices;
 /// Diamond ids per block: the cell's 16 x 16 half-open lattice (position 0 is a grid vertex).
 inline constexpr std::uint32_t kDiamondsPerBlock = kLatticePerCell * kLatticePerCell;
 inline constexpr double kInfinity = std::numeric_limits<double>::infinity();
-/// Local position (x and y) of a cell's centre diamond, whose triangles are its base triangles.
-inline constexpr std::int32_t kCentreLocal = kLatticePerCell / 2;
 
 // How split/merge follows a binding triangle cap (SplitMerge::followCap): a rebuild fills this
 // share of the cap; the threshold rises by kCapStepUp (up to kCapStepMax when many splits were
@@ -39,12 +38,6 @@ inline constexpr std::uint64_t kPoolQuietFrames = 30;
 /// A threshold move re-examines the candidates keyed against the old one over this many frames.
 inline constexpr std::size_t kRekeyFrames = 8;
 inline constexpr std::size_t kRekeyAtOnce = 16384; ///< or at least this many per frame
-
-/// The id of grid vertex `p` (diamond_id.h: the grid's ids come first, row by row).
-inline std::uint32_t gridVertexId(LatticePoint p, std::int32_t grid_w) {
-    return static_cast<std::uint32_t>(p.y / kLatticePerCell) * static_cast<std::uint32_t>(grid_w) +
-           static_cast<std::uint32_t>(p.x / kLatticePerCell);
-}
 
 /// The tile a cell belongs to; -1 for the virtual cells past the grid.
 inline std::int32_t tileOfCell(DetailBlocks::CellXY c, const WorldSpec& spec) {

@@ -14,6 +14,7 @@
 // Owns: the geometry. Reads, never changes: the records, the pool, the diamond space; it never
 // makes a block (the tessellator's resolve does). Pure, single-threaded.
 
+#include <terrain/roam/block_grains.h>
 #include <terrain/roam/block_pool.h>
 #include <terrain/roam/camera.h>
 #include <terrain/roam/detail_blocks.h>
@@ -27,6 +28,15 @@
 #include <cstdint>
 
 namespace terrain::roam {
+
+/// Local position (x and y) of a cell's centre diamond, whose triangles are its base triangles.
+inline constexpr std::int32_t kCentreLocal = kLatticePerCell / 2;
+
+/// The id of grid vertex `p` (diamond_id.h: the grid's ids come first, row by row).
+inline DiamondId gridVertexId(LatticePoint p, std::int32_t grid_w) {
+    return static_cast<DiamondId>(p.y / kLatticePerCell) * static_cast<DiamondId>(grid_w) +
+           static_cast<DiamondId>(p.x / kLatticePerCell);
+}
 
 struct LatticeGeometry {
     /// The measures of `spec`'s map.
@@ -86,5 +96,34 @@ class LatticeIds {
     const DiamondSpace& space_;
     LatticeGeometry geo_;
 };
+
+// inline: the lattice walk asks for ids per diamond it looks at
+inline DiamondId LatticeIds::idOf(LatticePoint p) const {
+    if (!geo_.insideMap(p))
+        return kNoDiamond;
+    if (isGridVertex(p))
+        return gridVertexId(p, geo_.grid_w);
+    const std::int32_t record = blocks_.recordOf(p.x / kLatticePerCell, p.y / kLatticePerCell);
+    if (record < 0)
+        return kNoDiamond;
+    const std::int32_t k = p.x % kLatticePerCell;
+    const std::int32_t l = p.y % kLatticePerCell;
+    if (k == kCentreLocal && l == kCentreLocal)
+        return space_.centreId(record);
+    const std::int32_t block = blocks_.blockOfRecord(record);
+    if (block < 0)
+        return kNoDiamond;
+    return pooledId(block, static_cast<std::uint32_t>(l * kLatticePerCell + k));
+}
+
+inline DiamondId LatticeIds::pooledId(std::int32_t block, std::uint32_t local) const {
+    const int g = grainOf(
+        static_cast<std::int32_t>(local % kLatticePerCell),
+        static_cast<std::int32_t>(local / kLatticePerCell));
+    const std::int32_t chunk = pool_.chunkOf(block, g);
+    if (chunk < 0)
+        return kNoDiamond;
+    return DiamondSpace::pooledId(g, chunk, grainTables().diamond_slot[local]);
+}
 
 } // namespace terrain::roam
