@@ -1,4 +1,3 @@
-#include "tile_vertex_builder.h"
 #include "upload_runs.h"
 
 #include <terrain/render/terrain_program.h>
@@ -47,7 +46,7 @@ TerrainRenderer::create(const GlContext& context, const RendererOptions& options
 
 TerrainRenderer::TerrainRenderer(const GlContext& context, const RendererOptions& options)
     : context_(context), gl_(context.gl()), options_(options),
-      builder_(std::make_unique<TileVertexBuilder>()) {}
+      builder_(std::make_unique<roam::TileVertexBuilder>()) {}
 
 TerrainRenderer::~TerrainRenderer() {
     context_.makeCurrent(); // the names belong to this context

@@ -5,8 +5,6 @@
 // (the costly part: surface queries), its normal too. Vertices no index refers to (a grain gone)
 // may hold anything.
 
-#include "tile_vertex_builder.h"
-
 #include <terrain/render/terrain_renderer.h>
 
 #include <algorithm>

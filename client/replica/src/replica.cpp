@@ -19,6 +19,13 @@ void Replica::loadSnapshot(DecodedSnapshot snapshot) {
     dirty_.cells.clear();
     dirty_.all = true;
     ++stats_.snapshots;
+    if (recording_) {
+        ReplicaChange change;
+        change.kind = ReplicaChange::Kind::kState;
+        change.seq = seq_;
+        change.state = std::make_shared<const Terrain>(*terrain_);
+        changes_.push_back(std::move(change));
+    }
 }
 
 Result<Replica::OpOutcome>
@@ -38,6 +45,14 @@ Replica::applyOp(std::uint64_t seq, const DeformOp& op, std::optional<std::uint6
         return effect.error();
     seq_ = seq;
     ++stats_.ops_applied;
+    if (recording_) {
+        ReplicaChange change;
+        change.kind = ReplicaChange::Kind::kOp;
+        change.seq = seq;
+        change.op = op;
+        change.world_hash = checked_hash;
+        changes_.push_back(std::move(change));
+    }
     // an op dirties its own cells: whole tiles would make every crater re-derive tiles of
     // blocks and bounds on the client (tiles are for snapshots and repairs)
     if (!effect->cells.empty())
@@ -111,6 +126,15 @@ Result<std::vector<std::int32_t>> Replica::applyRepair(
         server_tile_hashes.size() != static_cast<std::size_t>(tile_count))
         return makeError(
             ErrorCode::kSizeMismatch, "repair carries a tile hash list of the wrong length");
+    if (recording_) {
+        ReplicaChange change;
+        change.kind = ReplicaChange::Kind::kRepair;
+        change.seq = seq;
+        change.world_hash = world_hash;
+        change.tiles = tiles;
+        change.tile_hashes.assign(server_tile_hashes.begin(), server_tile_hashes.end());
+        changes_.push_back(std::move(change));
+    }
     for (TileRecord& record : tiles) {
         genesis_hash_.reset(); // a repaired tile carries its own original ground
         terrain_->replaceTile(
@@ -148,6 +172,42 @@ DirtySet Replica::takeDirty() {
     DirtySet out = std::move(dirty_);
     dirty_ = DirtySet{};
     return out;
+}
+
+void Replica::recordChanges(bool on) {
+    recording_ = on;
+    if (!on)
+        changes_.clear();
+}
+
+std::vector<ReplicaChange> Replica::takeChanges() {
+    std::vector<ReplicaChange> out;
+    out.swap(changes_);
+    return out;
+}
+
+Status Replica::replay(const ReplicaChange& change) {
+    switch (change.kind) {
+    case ReplicaChange::Kind::kState:
+        if (!change.state)
+            return makeError(ErrorCode::kInvariantBroken, "a recorded state without its world");
+        loadSnapshot(DecodedSnapshot{Terrain(*change.state), change.seq});
+        return Ok{};
+    case ReplicaChange::Kind::kOp: {
+        Result<OpOutcome> outcome = applyOp(change.seq, change.op, change.world_hash);
+        if (!outcome)
+            return outcome.error();
+        return Ok{};
+    }
+    case ReplicaChange::Kind::kRepair: {
+        Result<std::vector<std::int32_t>> left = applyRepair(
+            change.seq, change.world_hash.value_or(0), change.tiles, change.tile_hashes);
+        if (!left)
+            return left.error();
+        return Ok{};
+    }
+    }
+    return makeError(ErrorCode::kInvariantBroken, "an unknown kind of replica change");
 }
 
 } // namespace terrain::client

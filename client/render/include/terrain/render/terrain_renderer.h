@@ -22,6 +22,7 @@
 #include <terrain/render/upload_ring.h>
 #include <terrain/roam/camera.h>
 #include <terrain/roam/tessellator.h>
+#include <terrain/roam/tile_vertex_builder.h>
 #include <terrain/terrain.h>
 
 #include <glm/vec3.hpp>
@@ -35,18 +36,10 @@
 namespace terrain::render {
 
 class TerrainProgram;
-class TileVertexBuilder;
 struct UploadRun;
 
-/// One vertex in a tile's buffer: x and y in lattice units (1/16 cell) from the map's corner
-/// (whole numbers), z in metres, and the normal packed as signed 10:10:10:2
-/// (GL_INT_2_10_10_10_REV, normalised).
-struct GpuVertex {
-    float x = 0.0f;
-    float y = 0.0f;
-    float z = 0.0f;
-    std::uint32_t normal = 0;
-};
+/// One vertex in a tile's buffer (roam::DrawVertex: lattice x and y, z in metres, packed normal).
+using GpuVertex = roam::DrawVertex;
 
 enum class DrawMode { kShaded, kWireframe, kShadedWireframe };
 
@@ -230,7 +223,7 @@ class TerrainRenderer {
     std::uint32_t evict_after_frames_ = kDefaultEvictAfterFrames;
     std::vector<roam::VertexRange> scratch_ranges_;
     std::vector<UploadRun> scratch_runs_;
-    std::unique_ptr<TileVertexBuilder> builder_;
+    std::unique_ptr<roam::TileVertexBuilder> builder_;
     std::vector<GpuVertex> scratch_vertices_;
     std::vector<GpuVertex> scratch_staged_;
     std::vector<std::uint32_t> scratch_pages_;

@@ -5,6 +5,7 @@
 // connection (client/net) feeds it and the tessellator reads its dirty set.
 // Not thread safe: one owner (the client's frame loop).
 
+#include <terrain/client/replica_change.h>
 #include <terrain/deform_op.h>
 #include <terrain/result.h>
 #include <terrain/snapshot.h>
@@ -95,6 +96,17 @@ class Replica {
 
     /// Returns and clears what changed since the last call.
     DirtySet takeDirty();
+
+    /// From now on, records every change applied (a state loaded, an op applied, a repair
+    /// applied) for takeChanges(), so that another copy can follow (replay). Off by default: a
+    /// recorded state is a copy of the world.
+    void recordChanges(bool on);
+    bool recordingChanges() const { return recording_; }
+    /// The changes recorded since the last call, in the order applied.
+    std::vector<ReplicaChange> takeChanges();
+    /// Applies a change another replica recorded, as it applied it (a stale op, a gap or a
+    /// repair at another seq fail as they do there). What it changed is dirty as usual.
+    Status replay(const ReplicaChange& change);
     const DirtySet& peekDirty() const { return dirty_; }
 
     const ReplicaStats& stats() const { return stats_; }
@@ -120,6 +132,8 @@ class Replica {
     std::vector<std::int32_t> unverified_tiles_; // dirtied by unchecked ops since the last check
     DirtySet dirty_;
     ReplicaStats stats_;
+    bool recording_ = false;
+    std::vector<ReplicaChange> changes_;
 };
 
 } // namespace terrain::client

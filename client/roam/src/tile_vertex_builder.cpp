@@ -1,11 +1,10 @@
-#include "tile_vertex_builder.h"
-
 #include <terrain/roam/detail_blocks.h>
+#include <terrain/roam/tile_vertex_builder.h>
 
 #include <algorithm>
 #include <cmath>
 
-namespace terrain::render {
+namespace terrain::roam {
 
 std::uint32_t packNormal(double nx, double ny, double nz) {
     const auto component = [](double v, int shift) {
@@ -24,11 +23,11 @@ std::uint32_t normalOfSlopes(double dzdx, double dzdy) {
 
 /// On the base grid: the samples a cell either side (patch corners are pinned to them), one
 /// sided at the map's edge; the padding takes the map edge's slope.
-std::uint32_t baseNormal(const Terrain& terrain, roam::LatticePoint p) {
+std::uint32_t baseNormal(const Terrain& terrain, LatticePoint p) {
     const WorldSpec& spec = terrain.spec();
     const double spacing = spec.spacingMetres();
-    const std::int32_t gx = std::min(p.x / roam::kLatticePerCell, spec.width - 1);
-    const std::int32_t gy = std::min(p.y / roam::kLatticePerCell, spec.height - 1);
+    const std::int32_t gx = std::min(p.x / kLatticePerCell, spec.width - 1);
+    const std::int32_t gy = std::min(p.y / kLatticePerCell, spec.height - 1);
     const std::int32_t ax = std::max(gx - 1, 0);
     const std::int32_t bx = std::min(gx + 1, spec.width - 1);
     const std::int32_t ay = std::max(gy - 1, 0);
@@ -46,18 +45,15 @@ std::uint32_t baseNormal(const Terrain& terrain, roam::LatticePoint p) {
 } // namespace
 
 void TileVertexBuilder::positions(
-    const roam::Tessellator& tess,
-    std::int32_t tile,
-    std::uint32_t first,
-    std::span<GpuVertex> out) {
+    const Tessellator& tess, std::int32_t tile, std::uint32_t first, std::span<DrawVertex> out) {
     const double per_fine = tess.metresPerFineUnit();
     keys_.resize(out.size());
     tess.tileVertices(tile, first, keys_);
     for (std::size_t i = 0; i < out.size(); ++i) {
-        const roam::TileVertex& v = keys_[i];
+        const TileVertex& v = keys_[i];
         // lattice units from the map's corner: whole numbers below 2^24, exact in a float, so
         // every copy of a vertex (tiles, cell blocks) is the same bits
-        out[i] = GpuVertex{
+        out[i] = DrawVertex{
             static_cast<float>(v.position.x), static_cast<float>(v.position.y),
             static_cast<float>(static_cast<double>(v.height) * per_fine), 0u};
     }
@@ -76,7 +72,7 @@ TileVertexBuilder::cellGrid(const Terrain& terrain, std::int32_t cx, std::int32_
         (std::uint64_t{static_cast<std::uint32_t>(cx)} << 32) | static_cast<std::uint32_t>(cy);
     if (key == last_key_)
         return last_grid_;
-    constexpr auto kCell = static_cast<std::size_t>(roam::kBlockVertices);
+    constexpr auto kCell = static_cast<std::size_t>(kBlockVertices);
     // a bounded cache (2.4 MB): a whole world loaded at once starts it over now and then
     constexpr std::size_t kMaxCells = 1024;
     if (cell_slot_.size() >= kMaxCells && !cell_slot_.contains(key))
@@ -85,10 +81,9 @@ TileVertexBuilder::cellGrid(const Terrain& terrain, std::int32_t cx, std::int32_
         cell_slot_.try_emplace(key, static_cast<std::uint32_t>(grids_.size() / kCell));
     if (added) {
         grids_.resize(grids_.size() + kCell);
-        roam::fillCellHeights(
+        fillCellHeights(
             terrain, cx, cy,
-            std::span<std::int64_t, roam::kBlockVertices>(
-                grids_.data() + it->second * kCell, kCell));
+            std::span<std::int64_t, kBlockVertices>(grids_.data() + it->second * kCell, kCell));
     }
     last_key_ = key;
     last_grid_ = grids_.data() + it->second * kCell;
@@ -99,21 +94,21 @@ std::int64_t
 TileVertexBuilder::latticeHeight(const Terrain& terrain, std::int32_t x, std::int32_t y) {
     // the owner: the cell at or before the point, the last real cell on the map's far lines
     const WorldSpec& spec = terrain.spec();
-    const std::int32_t cx = std::min(x / roam::kLatticePerCell, spec.cellsX() - 1);
-    const std::int32_t cy = std::min(y / roam::kLatticePerCell, spec.cellsY() - 1);
+    const std::int32_t cx = std::min(x / kLatticePerCell, spec.cellsX() - 1);
+    const std::int32_t cy = std::min(y / kLatticePerCell, spec.cellsY() - 1);
     const std::int64_t* grid = cellGrid(terrain, cx, cy);
-    const std::int32_t k = x - cx * roam::kLatticePerCell;
-    const std::int32_t l = y - cy * roam::kLatticePerCell;
-    return grid[static_cast<std::size_t>(l * roam::kBlockSide + k)];
+    const std::int32_t k = x - cx * kLatticePerCell;
+    const std::int32_t l = y - cy * kLatticePerCell;
+    return grid[static_cast<std::size_t>(l * kBlockSide + k)];
 }
 
 std::uint32_t TileVertexBuilder::blockNormal(
-    const Terrain& terrain, roam::LatticePoint p, double per_lattice, double per_fine) {
+    const Terrain& terrain, LatticePoint p, double per_lattice, double per_fine) {
     // one lattice step either side, one sided at the real map's edge (past it, in the padding,
     // the edge's slope)
     const WorldSpec& spec = terrain.spec();
-    const std::int32_t max_x = spec.cellsX() * roam::kLatticePerCell;
-    const std::int32_t max_y = spec.cellsY() * roam::kLatticePerCell;
+    const std::int32_t max_x = spec.cellsX() * kLatticePerCell;
+    const std::int32_t max_y = spec.cellsY() * kLatticePerCell;
     const std::int32_t x = std::min(p.x, max_x);
     const std::int32_t y = std::min(p.y, max_y);
     const std::int32_t x0 = std::max(x - 1, 0);
@@ -132,19 +127,19 @@ std::uint32_t TileVertexBuilder::blockNormal(
 }
 
 void TileVertexBuilder::build(
-    const roam::Tessellator& tess,
+    const Tessellator& tess,
     const Terrain& terrain,
     std::int32_t tile,
     std::uint32_t first,
-    std::span<GpuVertex> out) {
+    std::span<DrawVertex> out) {
     positions(tess, tile, first, out);
     const double per_lattice = tess.metresPerLattice();
     const double per_fine = tess.metresPerFineUnit();
-    constexpr auto kBase = static_cast<std::size_t>(roam::kTileBaseVertices);
+    constexpr auto kBase = static_cast<std::size_t>(kTileBaseVertices);
     for (std::size_t i = 0; i < out.size(); ++i)
         out[i].normal = first + i < kBase
                             ? baseNormal(terrain, keys_[i].position)
                             : blockNormal(terrain, keys_[i].position, per_lattice, per_fine);
 }
 
-} // namespace terrain::render
+} // namespace terrain::roam

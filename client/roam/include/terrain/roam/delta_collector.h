@@ -1,0 +1,63 @@
+#pragma once
+
+// The tessellator's side of the hand-over to another thread: takes what the tiles changed in each
+// step (the index pages and vertex ranges a renderer would take) and writes MeshDeltas with their
+// current contents. A delta that the reader never took is superseded by the next one, which
+// covers what it did too: so everything changed since the last delta known to be taken is
+// pending, and every delta written carries all of it. A reader that applies any subsequence of the
+// deltas, each newer than the last it applied, holds the tessellator's tiles as they were at the
+// step of the last.
+//
+// Owns: the pending coverage per tile (index pages, vertex ranges, whether the list or array
+// was rebuilt) and a vertex builder. Takes the tessellator's changes (so it is the tessellator's
+// only reader: no renderer syncs from that tessellator). Pure, single-threaded: the thread that
+// updates the tessellator calls it.
+
+#include <terrain/roam/mesh_delta.h>
+#include <terrain/roam/tessellator.h>
+#include <terrain/roam/tile_vertex_builder.h>
+#include <terrain/terrain.h>
+
+#include <cstdint>
+#include <vector>
+
+namespace terrain::roam {
+
+class DeltaCollector {
+  public:
+    /// Past this many ranges a tile's pending vertices are "all of them".
+    static constexpr std::size_t kMaxRanges = 256;
+
+    /// The reader took the last delta written: what it covered is no longer pending. Call before
+    /// the next collect().
+    void delivered();
+    /// Takes the tessellator's changes since the last call into the pending coverage and writes
+    /// everything pending into `out` (cleared first), with `terrain` (the surface `tess` reads)
+    /// for the normals.
+    void collect(Tessellator& tess, const Terrain& terrain, MeshDelta& out);
+    /// Steps collected so far (the step of the last delta written).
+    std::uint64_t step() const { return step_; }
+
+  private:
+    struct Pending {
+        std::vector<std::uint32_t> pages;
+        std::vector<std::uint8_t> page_flags; ///< per page: in `pages`
+        std::vector<VertexRange> ranges;
+        bool rewritten = false;
+        bool all_vertices = false;
+        bool any() const { return rewritten || all_vertices || !pages.empty() || !ranges.empty(); }
+    };
+
+    void takeChanges(Tessellator& tess);
+    void write(Tessellator& tess, const Terrain& terrain, std::int32_t t, MeshDelta& out);
+
+    std::vector<Pending> pending_;
+    std::vector<std::int32_t> pending_tiles_; ///< tiles with pending changes, unordered
+    std::vector<std::uint8_t> tile_listed_;
+    bool new_tiles_ = true;
+    WorldSpec spec_{};
+    std::uint64_t step_ = 0;
+    TileVertexBuilder builder_;
+};
+
+} // namespace terrain::roam

@@ -1,0 +1,186 @@
+#include <terrain/roam/delta_collector.h>
+
+#include <algorithm>
+#include <cstring>
+
+namespace terrain::roam {
+
+namespace {
+
+std::size_t at(std::int64_t v) {
+    return static_cast<std::size_t>(v);
+}
+
+std::uint32_t pagesOf(std::uint32_t slots) {
+    return (slots + TileMesh::kSlotsPerPage - 1) / TileMesh::kSlotsPerPage;
+}
+
+/// Sorts and joins `ranges` in place (touching ranges join), clamped to [0, count).
+void normalise(std::vector<VertexRange>& ranges, std::uint32_t count) {
+    std::sort(ranges.begin(), ranges.end(), [](const VertexRange& a, const VertexRange& b) {
+        return a.begin < b.begin;
+    });
+    std::size_t kept = 0;
+    for (VertexRange r : ranges) {
+        r.end = std::min(r.end, count);
+        if (r.begin >= r.end)
+            continue;
+        if (kept > 0 && r.begin <= ranges[kept - 1].end)
+            ranges[kept - 1].end = std::max(ranges[kept - 1].end, r.end);
+        else
+            ranges[kept++] = r;
+    }
+    ranges.resize(kept);
+}
+
+} // namespace
+
+void DeltaCollector::delivered() {
+    for (const std::int32_t t : pending_tiles_) {
+        Pending& p = pending_[at(t)];
+        for (const std::uint32_t page : p.pages)
+            p.page_flags[page] = 0;
+        p.pages.clear();
+        p.ranges.clear();
+        p.rewritten = false;
+        p.all_vertices = false;
+        tile_listed_[at(t)] = 0;
+    }
+    pending_tiles_.clear();
+    new_tiles_ = false;
+}
+
+void DeltaCollector::takeChanges(Tessellator& tess) {
+    const std::int32_t tiles = tess.tileCount();
+    const auto list = [&](std::int32_t t) {
+        if (tile_listed_[at(t)] == 0) {
+            tile_listed_[at(t)] = 1;
+            pending_tiles_.push_back(t);
+        }
+    };
+    if (pending_.size() != at(tiles)) {
+        // a new set of tiles: the reader starts over, every tile whole
+        pending_.assign(at(tiles), Pending{});
+        tile_listed_.assign(at(tiles), 0);
+        pending_tiles_.clear();
+        new_tiles_ = true;
+    }
+    for (std::int32_t t = 0; t < tiles; ++t) {
+        Pending& p = pending_[at(t)];
+        if (new_tiles_ && !p.rewritten) {
+            p.rewritten = true;
+            p.all_vertices = true;
+            list(t);
+        }
+        TileMesh& mesh = tess.tileMesh(t);
+        const bool all_vertices = tess.tileVerticesAllChanged(t);
+        const auto ranges = tess.tileVertexChanges(t);
+        if (!mesh.dirty() && !all_vertices && ranges.empty())
+            continue;
+        list(t);
+        if (mesh.rewritten()) {
+            p.rewritten = true;
+        } else if (!p.rewritten) {
+            for (const std::uint32_t page : mesh.dirtyPages()) {
+                if (page >= p.page_flags.size())
+                    p.page_flags.resize(page + 1, 0);
+                if (p.page_flags[page] == 0) {
+                    p.page_flags[page] = 1;
+                    p.pages.push_back(page);
+                }
+            }
+        }
+        if (all_vertices) {
+            p.all_vertices = true;
+            p.ranges.clear();
+        } else if (!p.all_vertices) {
+            p.ranges.insert(p.ranges.end(), ranges.begin(), ranges.end());
+            if (p.ranges.size() > kMaxRanges) {
+                normalise(p.ranges, static_cast<std::uint32_t>(tess.tileVertexCount(t)));
+                if (p.ranges.size() > kMaxRanges) {
+                    p.all_vertices = true;
+                    p.ranges.clear();
+                }
+            }
+        }
+        mesh.takeChanges();
+        tess.takeVertexChanges(t);
+    }
+}
+
+void DeltaCollector::collect(Tessellator& tess, const Terrain& terrain, MeshDelta& out) {
+    takeChanges(tess);
+    ++step_;
+    out.clear();
+    out.step = step_;
+    out.new_tiles = new_tiles_;
+    out.tile_count = tess.tileCount();
+    out.visible.resize(at(out.tile_count));
+    for (std::int32_t t = 0; t < out.tile_count; ++t)
+        out.visible[at(t)] = tess.tileVisible(t) ? 1 : 0;
+    // ascending tiles: a reader's work and the delta's layout follow the map, not the order of
+    // the changes
+    std::sort(pending_tiles_.begin(), pending_tiles_.end());
+    builder_.newFrame(); // the terrain may have changed since the last collect
+    for (const std::int32_t t : pending_tiles_)
+        write(tess, terrain, t, out);
+}
+
+void DeltaCollector::write(
+    Tessellator& tess, const Terrain& terrain, std::int32_t t, MeshDelta& out) {
+    Pending& p = pending_[at(t)];
+    const TileMesh& mesh = tess.tileMesh(t);
+    MeshDelta::Tile entry;
+    entry.tile = t;
+    entry.slot_count = mesh.slotCount();
+    entry.vertex_count = static_cast<std::uint32_t>(tess.tileVertexCount(t));
+    entry.vertex_version = tess.tileVertexVersion(t);
+    entry.indices_rewritten = p.rewritten;
+    entry.vertices_reset = p.all_vertices;
+
+    // index pages: all of the list after a rebuild, else the pages written that it still holds
+    const std::uint32_t live_pages = pagesOf(entry.slot_count);
+    entry.first_page = static_cast<std::uint32_t>(out.pages.size());
+    if (p.rewritten) {
+        for (std::uint32_t page = 0; page < live_pages; ++page)
+            out.pages.push_back(page);
+    } else {
+        std::sort(p.pages.begin(), p.pages.end());
+        for (const std::uint32_t page : p.pages)
+            if (page < live_pages)
+                out.pages.push_back(page);
+    }
+    entry.page_count = static_cast<std::uint32_t>(out.pages.size()) - entry.first_page;
+    const std::span<const std::uint32_t> indices = mesh.indices();
+    out.page_indices.resize(out.pages.size() * MeshDelta::kPageIndices);
+    for (std::uint32_t k = entry.first_page; k < entry.first_page + entry.page_count; ++k) {
+        const std::size_t from = std::size_t{out.pages[k]} * MeshDelta::kPageIndices;
+        const std::size_t n = std::min<std::size_t>(MeshDelta::kPageIndices, indices.size() - from);
+        std::uint32_t* into = out.page_indices.data() + std::size_t{k} * MeshDelta::kPageIndices;
+        std::memcpy(into, indices.data() + from, n * sizeof(std::uint32_t));
+        std::fill(into + n, into + MeshDelta::kPageIndices, 0u);
+    }
+
+    // vertex runs, built as they are drawn (normals from `terrain`)
+    entry.first_run = static_cast<std::uint32_t>(out.runs.size());
+    if (p.all_vertices) {
+        if (entry.vertex_count > 0)
+            out.runs.push_back({0, entry.vertex_count, 0});
+    } else {
+        normalise(p.ranges, entry.vertex_count);
+        for (const VertexRange& r : p.ranges)
+            out.runs.push_back({r.begin, r.end, 0});
+    }
+    entry.run_count = static_cast<std::uint32_t>(out.runs.size()) - entry.first_run;
+    for (std::uint32_t k = entry.first_run; k < entry.first_run + entry.run_count; ++k) {
+        MeshDelta::Run& run = out.runs[k];
+        run.at = out.vertices.size();
+        out.vertices.resize(out.vertices.size() + (run.end - run.begin));
+        builder_.build(
+            tess, terrain, t, run.begin,
+            std::span<DrawVertex>(out.vertices.data() + run.at, run.end - run.begin));
+    }
+    out.tiles.push_back(entry);
+}
+
+} // namespace terrain::roam

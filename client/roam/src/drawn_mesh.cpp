@@ -1,0 +1,95 @@
+#include <terrain/roam/drawn_mesh.h>
+
+#include <algorithm>
+#include <cstring>
+
+namespace terrain::roam {
+
+void DrawnMesh::markPage(TileCopy& copy, std::uint32_t page) {
+    if (page >= copy.page_flags.size())
+        copy.page_flags.resize(page + 1, 0);
+    if (copy.page_flags[page] == 0) {
+        copy.page_flags[page] = 1;
+        copy.dirty_pages.push_back(page);
+    }
+}
+
+bool DrawnMesh::apply(const MeshDelta& delta) {
+    if (delta.step <= step_ && !delta.new_tiles)
+        return false;
+    // a delta for other tiles than the copy's must start them over (one was missed: a bug)
+    if (!delta.new_tiles && delta.tile_count != tileCount())
+        return false;
+    if (delta.new_tiles)
+        tiles_.assign(at(delta.tile_count), TileCopy{});
+    step_ = delta.step;
+    for (std::int32_t t = 0; t < delta.tile_count && at(t) < tiles_.size(); ++t)
+        tiles_[at(t)].visible = delta.visible[at(t)] != 0;
+    for (const MeshDelta::Tile& e : delta.tiles) {
+        TileCopy& copy = tiles_[at(e.tile)];
+        // the list: its new length, then the pages (a page cut by the end is padded in the delta)
+        const std::size_t index_count = std::size_t{e.slot_count} * 3;
+        copy.indices.resize(index_count);
+        if (e.indices_rewritten) {
+            copy.rewritten = true;
+            for (const std::uint32_t page : copy.dirty_pages)
+                copy.page_flags[page] = 0;
+            copy.dirty_pages.clear();
+        }
+        for (std::uint32_t k = e.first_page; k < e.first_page + e.page_count; ++k) {
+            const std::uint32_t page = delta.pages[k];
+            const std::size_t from = std::size_t{page} * MeshDelta::kPageIndices;
+            const std::size_t n =
+                std::min<std::size_t>(MeshDelta::kPageIndices, index_count - from);
+            std::memcpy(
+                copy.indices.data() + from,
+                delta.page_indices.data() + std::size_t{k} * MeshDelta::kPageIndices,
+                n * sizeof(std::uint32_t));
+            if (!copy.rewritten)
+                markPage(copy, page);
+        }
+        // the array: its new size, then the runs
+        copy.vertices.resize(e.vertex_count);
+        copy.version = e.vertex_version;
+        if (e.vertices_reset) {
+            copy.all_vertices = true;
+            copy.vertex_changes.clear();
+        }
+        for (std::uint32_t k = e.first_run; k < e.first_run + e.run_count; ++k) {
+            const MeshDelta::Run& run = delta.runs[k];
+            std::memcpy(
+                copy.vertices.data() + run.begin, delta.vertices.data() + run.at,
+                std::size_t{run.end - run.begin} * sizeof(DrawVertex));
+            if (!copy.all_vertices)
+                copy.vertex_changes.push_back({run.begin, run.end});
+        }
+        if (copy.vertex_changes.size() > TileVertexArrays::kMaxRanges) {
+            // no renderer is taking them: "everything", as the tessellator does
+            copy.all_vertices = true;
+            copy.vertex_changes.clear();
+        }
+    }
+    return true;
+}
+
+void DrawnMesh::takeChanges(std::int32_t tile) {
+    TileCopy& copy = tiles_[at(tile)];
+    for (const std::uint32_t page : copy.dirty_pages)
+        copy.page_flags[page] = 0;
+    copy.dirty_pages.clear();
+    copy.vertex_changes.clear();
+    copy.rewritten = false;
+    copy.all_vertices = false;
+}
+
+std::size_t DrawnMesh::memoryBytes() const {
+    std::size_t bytes = tiles_.capacity() * sizeof(TileCopy);
+    for (const TileCopy& c : tiles_)
+        bytes += c.indices.capacity() * sizeof(std::uint32_t) +
+                 c.vertices.capacity() * sizeof(DrawVertex) +
+                 c.dirty_pages.capacity() * sizeof(std::uint32_t) + c.page_flags.capacity() +
+                 c.vertex_changes.capacity() * sizeof(VertexRange);
+    return bytes;
+}
+
+} // namespace terrain::roam

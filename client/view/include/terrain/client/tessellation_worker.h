@@ -1,0 +1,133 @@
+#pragma once
+
+// The tessellation off the frame thread: a worker thread keeps its own copy of the world, fed the
+// replica's changes (ReplicaChange: the same ops, repairs and states, so the same bits), and its
+// own TerrainView; for each frame's camera it tessellates and hands the tiles' changes over as a
+// MeshDelta (delta_collector.h). The frame thread never waits for it: post() hands in the
+// frame's changes and camera under a lock held for a move, take() applies the newest finished
+// delta, reached by one atomic exchange (a triple buffer: the worker writes one delta while the
+// frame thread reads another; a third holds the newest finished). A delta the frame thread never
+// took is superseded by the next, which covers it. When the worker is slower than the frames, it
+// skips to the newest camera and the mesh lags: lag() says by how many frames.
+//
+// Lockstep (tests, benchmarks): every post() waits until the worker has tessellated it, so the
+// steps are the synchronous path's (absorb, update per frame) and the meshes are the same.
+
+#include <terrain/client/replica.h>
+#include <terrain/client/terrain_view.h>
+#include <terrain/roam/camera.h>
+#include <terrain/roam/delta_collector.h>
+#include <terrain/roam/drawn_mesh.h>
+#include <terrain/roam/frame_stats.h>
+
+#include <array>
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+namespace terrain::client {
+
+struct TessellationWorkerOptions {
+    TerrainViewOptions view;
+    /// Each post() waits for its step (the synchronous path's steps, on the worker).
+    bool lockstep = false;
+};
+
+/// What the worker did for the delta the frame thread holds.
+struct WorkerStep {
+    std::uint64_t step = 0;  ///< the worker's steps so far (one per tessellation)
+    std::uint64_t frame = 0; ///< the post whose camera it tessellated (1 = the first)
+    std::uint64_t seq = 0;   ///< the replica seq its world had reached
+    std::uint64_t world_hash = 0;
+    double threshold = 0.0; ///< the tessellator's threshold after the step (pixels)
+    roam::FrameStats stats;
+    /// Worker time for the step: applying the changes, tessellating, writing the delta (ms).
+    double apply_ms = 0.0;
+    double update_ms = 0.0;
+    double collect_ms = 0.0;
+    std::uint64_t delta_bytes = 0; ///< the delta's payload (vertices and index pages)
+};
+
+class TessellationWorker {
+  public:
+    /// Copies the replica's world now and starts the worker on it; the replica records its
+    /// changes from now on (Replica::recordChanges), and post() hands them over. The replica must
+    /// outlive the worker and stay on the frame thread.
+    TessellationWorker(Replica& replica, const TessellationWorkerOptions& options);
+    /// Stops the worker (after the step it is in) and joins it.
+    ~TessellationWorker();
+    TessellationWorker(const TessellationWorker&) = delete;
+    TessellationWorker& operator=(const TessellationWorker&) = delete;
+
+    /// Frame thread: hands over what the replica applied since the last post and this frame's
+    /// camera (the worker tessellates the newest camera it has); `frame_ms`, when > 0, is the
+    /// last frame's time for the triangle budget (TerrainView::steer). Waits only in lockstep.
+    void post(const roam::Camera& camera, double frame_ms = 0.0);
+    /// Frame thread: a new threshold (setTau) or triangle cap for the next steps.
+    void setTau(double tau_pixels);
+    void setMaxTriangles(std::int64_t max_triangles);
+    /// Frame thread: applies the newest finished delta to `mesh` if there is one it has not
+    /// taken; whether `mesh` changed. `mesh` must be fed by this worker alone.
+    bool take(roam::DrawnMesh& mesh);
+
+    /// The step behind the delta last taken (zeros before the first).
+    const WorkerStep& taken() const { return taken_; }
+    /// Frames posted so far.
+    std::uint64_t posted() const { return posted_; }
+    /// Frames the drawn mesh is behind the newest camera: posted() - taken().frame.
+    std::uint64_t lag() const { return posted_ - taken_.frame; }
+
+  private:
+    struct Slot {
+        roam::MeshDelta delta;
+        WorkerStep info;
+    };
+    static constexpr std::uint32_t kFresh = 4; ///< in middle_: a delta not yet taken
+    static constexpr std::uint32_t kIndex = 3;
+
+    void run();
+
+    TessellationWorkerOptions options_;
+    Replica* replica_;
+
+    // inputs: written by post() under in_mutex_, moved out by the worker
+    std::mutex in_mutex_;
+    std::condition_variable in_cv_;
+    std::vector<ReplicaChange> in_changes_;
+    roam::Camera in_camera_{};
+    std::uint64_t in_frame_ = 0;
+    double in_frame_ms_ = 0.0;
+    std::optional<double> in_tau_;
+    std::optional<std::int64_t> in_max_triangles_;
+    bool stop_ = false;
+
+    // lockstep: the frame the worker last finished
+    std::mutex done_mutex_;
+    std::condition_variable done_cv_;
+    std::uint64_t done_frame_ = 0;
+
+    // the triple buffer: the worker writes slots_[back_], the frame thread reads slots_[front_],
+    // middle_ names the third and whether it holds a delta not yet taken
+    std::array<Slot, 3> slots_;
+    std::atomic<std::uint32_t> middle_{2};
+    std::uint32_t back_ = 0;  ///< the worker's
+    std::uint32_t front_ = 1; ///< the frame thread's
+
+    // the frame thread's
+    std::uint64_t posted_ = 0;
+    WorkerStep taken_;
+
+    // the worker's (built on the constructing thread before it starts)
+    Replica world_;
+    std::optional<TerrainView> view_;
+    roam::DeltaCollector collector_;
+    bool published_ = false;
+
+    std::thread thread_;
+};
+
+} // namespace terrain::client

@@ -1,0 +1,149 @@
+#include <terrain/client/tessellation_worker.h>
+
+#include <chrono>
+#include <utility>
+
+namespace terrain::client {
+
+namespace {
+
+double msSince(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+        .count();
+}
+
+} // namespace
+
+TessellationWorker::TessellationWorker(Replica& replica, const TessellationWorkerOptions& options)
+    : options_(options), replica_(&replica) {
+    // the worker's world: a copy of the replica's now, then the same changes as it
+    world_.loadSnapshot(DecodedSnapshot{Terrain(replica.terrain()), replica.seq()});
+    replica.recordChanges(true);
+    view_.emplace(world_, options.view);
+    thread_ = std::thread([this] { run(); });
+}
+
+TessellationWorker::~TessellationWorker() {
+    {
+        std::lock_guard lock(in_mutex_);
+        stop_ = true;
+    }
+    in_cv_.notify_one();
+    thread_.join();
+    replica_->recordChanges(false);
+}
+
+void TessellationWorker::post(const roam::Camera& camera, double frame_ms) {
+    std::vector<ReplicaChange> changes = replica_->takeChanges();
+    const std::uint64_t frame = ++posted_;
+    {
+        std::lock_guard lock(in_mutex_);
+        if (in_changes_.empty())
+            in_changes_ = std::move(changes);
+        else
+            for (ReplicaChange& c : changes)
+                in_changes_.push_back(std::move(c));
+        in_camera_ = camera;
+        in_frame_ = frame;
+        in_frame_ms_ = frame_ms;
+    }
+    in_cv_.notify_one();
+    if (options_.lockstep) {
+        std::unique_lock lock(done_mutex_);
+        done_cv_.wait(lock, [&] { return done_frame_ >= frame; });
+    }
+}
+
+void TessellationWorker::setTau(double tau_pixels) {
+    std::lock_guard lock(in_mutex_);
+    in_tau_ = tau_pixels;
+}
+
+void TessellationWorker::setMaxTriangles(std::int64_t max_triangles) {
+    std::lock_guard lock(in_mutex_);
+    in_max_triangles_ = max_triangles;
+}
+
+bool TessellationWorker::take(roam::DrawnMesh& mesh) {
+    if ((middle_.load(std::memory_order_acquire) & kFresh) == 0)
+        return false;
+    // the newest finished delta becomes ours; the worker gets our old slot to write into
+    front_ = middle_.exchange(front_, std::memory_order_acq_rel) & kIndex;
+    const Slot& slot = slots_[front_];
+    const bool changed = mesh.apply(slot.delta);
+    taken_ = slot.info;
+    return changed;
+}
+
+void TessellationWorker::run() {
+    std::vector<ReplicaChange> changes;
+    std::uint64_t done = 0;
+    std::uint64_t steps = 0;
+    for (;;) {
+        roam::Camera camera;
+        std::uint64_t frame = 0;
+        double frame_ms = 0.0;
+        std::optional<double> tau;
+        std::optional<std::int64_t> max_triangles;
+        {
+            std::unique_lock lock(in_mutex_);
+            in_cv_.wait(lock, [&] { return stop_ || in_frame_ != done; });
+            if (stop_)
+                return;
+            changes.swap(in_changes_);
+            camera = in_camera_;
+            frame = in_frame_;
+            frame_ms = in_frame_ms_;
+            tau = std::exchange(in_tau_, std::nullopt);
+            max_triangles = std::exchange(in_max_triangles_, std::nullopt);
+        }
+        Slot& slot = slots_[back_];
+        WorkerStep& info = slot.info;
+        info = WorkerStep{};
+
+        auto start = std::chrono::steady_clock::now();
+        // the same changes in the same order as the replica: the same bits (a failure there
+        // fails here too, and the replica's owner resyncs it, which reaches us as a state)
+        for (const ReplicaChange& change : changes)
+            (void)world_.replay(change);
+        changes.clear();
+        view_->absorb();
+        if (tau)
+            view_->tessellator().setTau(*tau);
+        if (max_triangles)
+            view_->tessellator().setMaxTriangles(*max_triangles);
+        if (frame_ms > 0.0)
+            view_->steer(frame_ms);
+        info.apply_ms = msSince(start);
+
+        start = std::chrono::steady_clock::now();
+        info.stats = view_->update(camera);
+        info.update_ms = msSince(start);
+
+        start = std::chrono::steady_clock::now();
+        // the frame thread took the last delta published: what it covered is delivered
+        if (published_ && (middle_.load(std::memory_order_acquire) & kFresh) == 0)
+            collector_.delivered();
+        collector_.collect(view_->tessellator(), world_.terrain(), slot.delta);
+        info.collect_ms = msSince(start);
+        info.step = ++steps;
+        info.frame = frame;
+        info.seq = world_.seq();
+        info.world_hash = world_.worldHash();
+        info.threshold = view_->tessellator().threshold();
+        info.delta_bytes = slot.delta.payloadBytes();
+
+        back_ = middle_.exchange(back_ | kFresh, std::memory_order_acq_rel) & kIndex;
+        published_ = true;
+        done = frame;
+        if (options_.lockstep) {
+            {
+                std::lock_guard lock(done_mutex_);
+                done_frame_ = frame;
+            }
+            done_cv_.notify_all();
+        }
+    }
+}
+
+} // namespace terrain::client

@@ -1,0 +1,249 @@
+// The tessellation worker (client/view): in lockstep it draws, frame by frame, what the
+// synchronous path draws (index lists, vertices as drawn, versions, visibility) through a battle,
+// a repair and a snapshot of another world; running free, it lags but settles on the mesh a
+// synchronous view settles on; a replica's recorded changes replayed on another copy reach the
+// same bits.
+
+#include "support/drawn_mesh_checks.h"
+
+#include <terrain/client/tessellation_worker.h>
+#include <terrain/procedural_map.h>
+#include <terrain/snapshot.h>
+#include <terrain/surface_query.h>
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <chrono>
+#include <random>
+#include <set>
+#include <thread>
+
+namespace terrain::client {
+namespace {
+
+using testing::difference;
+
+Terrain map(std::uint64_t seed, std::int32_t width, std::int32_t height) {
+    ProceduralMapOptions o;
+    o.seed = seed;
+    o.width = width;
+    o.height = height;
+    return std::move(*makeProceduralMap(o));
+}
+
+roam::Camera lowOver(const Terrain& t, double x, double y, double yaw) {
+    roam::Camera c;
+    c.eye = {x, y, surfaceHeight(t, x, y) + 6.0};
+    c.forward = {std::cos(yaw), std::sin(yaw), -0.25};
+    c.viewport_width = 640;
+    c.viewport_height = 360;
+    c.near_plane = 0.25;
+    return c;
+}
+
+/// The server's side: a world and its ops, fed to every replica given.
+struct Server {
+    Terrain world;
+    std::uint64_t seq = 1;
+    std::mt19937_64 rng{17};
+
+    /// Two craters 15-40 m ahead of (x, y) along `yaw`, applied to each replica.
+    void shoot(double x, double y, double yaw, std::initializer_list<Replica*> replicas) {
+        std::uniform_real_distribution<double> unit(0.0, 1.0);
+        for (int shot = 0; shot < 2; ++shot) {
+            const double ahead = 15.0 + 25.0 * unit(rng);
+            const double side = (unit(rng) - 0.5) * 20.0;
+            OpRequest r;
+            r.x = x + ahead * std::cos(yaw) - side * std::sin(yaw);
+            r.y = y + ahead * std::sin(yaw) + side * std::cos(yaw);
+            r.radius = 1.0 + 4.0 * unit(rng);
+            r.height = 0.4 * r.radius;
+            r.strength = 0.3 + 0.5 * unit(rng);
+            auto op = quantizeOp(r, world.spec());
+            if (!op || !world.apply(*op).ok())
+                continue;
+            ++seq;
+            for (Replica* replica : replicas)
+                ASSERT_TRUE(replica->applyOp(seq, *op, world.worldHash()).ok());
+        }
+    }
+    /// Every tile of the world, as a repair carries them.
+    std::vector<TileRecord> tiles() const {
+        std::vector<TileRecord> out;
+        for (std::int32_t t = 0; t < world.spec().tileCount(); ++t) {
+            std::vector<std::uint8_t> bytes;
+            world.appendTileBytes(t, bytes);
+            out.push_back(std::move(*decodeTile(bytes, world.spec())));
+        }
+        return out;
+    }
+    void load(Replica& replica) const {
+        replica.loadSnapshot(std::move(*decodeSnapshot(encodeSnapshot(world, seq))));
+    }
+};
+
+TEST(TessellationWorker, InLockstepItDrawsWhatTheSynchronousPathDrawsFrameByFrame) {
+    Server server{map(3, 257, 193)};
+    Replica frame_replica; // the worker's, on the frame thread
+    Replica sync_replica;  // the synchronous path's
+    server.load(frame_replica);
+    server.load(sync_replica);
+    TessellationWorkerOptions o;
+    o.lockstep = true;
+    TessellationWorker worker(frame_replica, o);
+    TerrainView sync(sync_replica, o.view);
+    roam::DrawnMesh mesh;
+    for (int f = 0; f < 70; ++f) {
+        const double x = 30.0 + (f % 35) * 5.0;
+        const double y = 40.0 + (f % 35) * 2.5;
+        const double yaw = f >= 20 && f < 30 ? f * 0.7 : std::atan2(0.5, 1.0); // a whip
+        if (f == 35) {
+            // a repair of every tile (the same state: every tile dirty on both sides)
+            const std::vector<std::uint64_t> hashes;
+            ASSERT_TRUE(
+                frame_replica
+                    .applyRepair(server.seq, server.world.worldHash(), server.tiles(), hashes)
+                    .ok());
+            ASSERT_TRUE(
+                sync_replica
+                    .applyRepair(server.seq, server.world.worldHash(), server.tiles(), hashes)
+                    .ok());
+        }
+        if (f == 50) {
+            // a snapshot of another world, smaller
+            server.world = map(9, 193, 193);
+            server.seq = 1000;
+            server.load(frame_replica);
+            server.load(sync_replica);
+        }
+        if (f < 20 || f >= 30)
+            server.shoot(x, y, yaw, {&frame_replica, &sync_replica});
+        const roam::Camera camera = lowOver(server.world, x, y, yaw);
+        sync.absorb();
+        sync.update(camera);
+        worker.post(camera);
+        ASSERT_TRUE(worker.take(mesh)) << "lockstep: a delta for every frame";
+        EXPECT_EQ(worker.lag(), 0u);
+        EXPECT_EQ(worker.taken().frame, static_cast<std::uint64_t>(f + 1));
+        EXPECT_EQ(worker.taken().seq, sync_replica.seq());
+        EXPECT_EQ(worker.taken().world_hash, sync_replica.worldHash());
+        EXPECT_EQ(worker.taken().stats.triangles, sync.lastStats().triangles);
+        EXPECT_EQ(worker.taken().threshold, sync.tessellator().threshold());
+        ASSERT_EQ(difference(mesh, sync.tessellator(), sync_replica.terrain(), f % 3 == 0), "")
+            << "frame " << f;
+    }
+    EXPECT_GT(sync_replica.stats().ops_applied, 80u);
+}
+
+/// Every drawn triangle's corners (lattice x, y), per tile, from the copy's lists.
+std::multiset<std::array<float, 7>> drawnTriangles(const roam::DrawnMesh& mesh) {
+    std::multiset<std::array<float, 7>> out;
+    for (std::int32_t t = 0; t < mesh.tileCount(); ++t) {
+        const auto indices = mesh.indices(t);
+        const auto vertices = mesh.vertices(t);
+        for (std::size_t s = 0; s + 2 < indices.size(); s += 3) {
+            const auto& a = vertices[indices[s]];
+            const auto& b = vertices[indices[s + 1]];
+            const auto& c = vertices[indices[s + 2]];
+            out.insert({static_cast<float>(t), a.x, a.y, b.x, b.y, c.x, c.y});
+        }
+    }
+    return out;
+}
+
+TEST(TessellationWorker, RunningFreeItLagsButSettlesOnTheMeshASynchronousViewSettlesOn) {
+    Server server{map(4, 257, 193)};
+    Replica frame_replica;
+    Replica sync_replica;
+    server.load(frame_replica);
+    server.load(sync_replica);
+    TessellationWorkerOptions o;
+    TessellationWorker worker(frame_replica, o);
+    roam::DrawnMesh mesh;
+    std::uint64_t taken = 0;
+    std::uint64_t max_lag = 0;
+    for (int f = 0; f < 60; ++f) {
+        const double x = 30.0 + f * 3.0;
+        const double y = 40.0 + f * 1.5;
+        server.shoot(x, y, 0.46, {&frame_replica, &sync_replica});
+        worker.post(lowOver(server.world, x, y, 0.46));
+        // frames of 3 ms that take the worker's changes one in four: deltas the frame thread
+        // never takes are superseded (their changes must reach it in the next)
+        std::this_thread::sleep_for(std::chrono::milliseconds(3));
+        if (f % 4 == 3)
+            taken += worker.take(mesh) ? 1 : 0;
+        max_lag = std::max(max_lag, worker.lag());
+    }
+    EXPECT_GT(taken, 0u);
+    // settle: the same camera until the worker has caught up and its mesh stopped moving
+    const roam::Camera last = lowOver(server.world, 30.0 + 59 * 3.0, 40.0 + 59 * 1.5, 0.46);
+    for (int f = 0; f < 2000; ++f) {
+        worker.post(last);
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        worker.take(mesh);
+        if (worker.lag() == 0 && worker.taken().seq == server.seq &&
+            !worker.taken().stats.budget_exhausted && worker.taken().stats.splits == 0 &&
+            worker.taken().stats.merges == 0)
+            break;
+    }
+    ASSERT_EQ(worker.taken().seq, server.seq);
+    EXPECT_EQ(worker.taken().world_hash, server.world.worldHash());
+    TerrainView sync(sync_replica, o.view);
+    for (int f = 0; f < 200; ++f) {
+        sync.update(last);
+        if (!sync.lastStats().budget_exhausted && sync.lastStats().splits == 0 &&
+            sync.lastStats().merges == 0)
+            break;
+    }
+    roam::DrawnMesh settled;
+    roam::DeltaCollector collector;
+    roam::MeshDelta delta;
+    collector.collect(sync.tessellator(), sync_replica.terrain(), delta);
+    ASSERT_TRUE(settled.apply(delta));
+    EXPECT_EQ(drawnTriangles(mesh), drawnTriangles(settled));
+    RecordProperty("max_lag", static_cast<int>(max_lag));
+}
+
+TEST(ReplicaChanges, ReplayedOnAnotherCopyTheyReachTheSameBitsAndTheSameDirtyCells) {
+    Server server{map(5, 193, 129)};
+    Replica recorded;
+    server.load(recorded);
+    recorded.recordChanges(true);
+    Replica follower;
+    follower.loadSnapshot(DecodedSnapshot{Terrain(recorded.terrain()), recorded.seq()});
+    follower.takeDirty();
+    recorded.takeDirty();
+    for (int round = 0; round < 5; ++round) {
+        server.shoot(40.0 + round * 20.0, 60.0, 0.3, {&recorded});
+        if (round == 2) {
+            // a tile corrupted behind the hashes' back, then repaired from the server
+            recorded.terrainForTesting().apply(*quantizeOp(
+                OpRequest{OpKind::kCrater, 70.0, 60.0, 5, 2, 0.3}, server.world.spec()));
+            server.shoot(80.0, 60.0, 0.3, {&recorded});
+            const std::vector<std::uint64_t> hashes;
+            ASSERT_TRUE(
+                recorded.applyRepair(server.seq, server.world.worldHash(), server.tiles(), hashes)
+                    .ok());
+        }
+        if (round == 3)
+            server.load(recorded);
+        for (const ReplicaChange& change : recorded.takeChanges())
+            ASSERT_TRUE(follower.replay(change).ok());
+        EXPECT_EQ(follower.seq(), recorded.seq());
+        const DirtySet a = recorded.takeDirty();
+        const DirtySet b = follower.takeDirty();
+        EXPECT_EQ(a.all, b.all);
+        EXPECT_EQ(a.tiles, b.tiles);
+        ASSERT_EQ(a.cells.size(), b.cells.size());
+        // the corruption was not recorded, but the repair brings both to the server's state
+        EXPECT_EQ(follower.worldHash(), recorded.worldHash());
+    }
+    EXPECT_EQ(follower.worldHash(), server.world.worldHash());
+    recorded.recordChanges(false);
+    server.shoot(40.0, 60.0, 0.3, {&recorded});
+    EXPECT_TRUE(recorded.takeChanges().empty());
+}
+
+} // namespace
+} // namespace terrain::client
