@@ -1,3 +1,4 @@
+#include "tile_source.h"
 #include "upload_runs.h"
 
 #include <terrain/render/terrain_program.h>
@@ -101,26 +102,44 @@ unsigned TerrainRenderer::createBuffer(std::uint64_t bytes) {
 }
 
 UploadStats TerrainRenderer::sync(roam::Tessellator& tess, const Terrain& terrain) {
+    TessellatorTiles source(tess, terrain, *builder_);
+    builder_->newFrame();
+    const UploadStats stats = syncTiles(source);
+    synced_terrain_ = &terrain;
+    if (options_.validate)
+        validate(source);
+    return stats;
+}
+
+UploadStats TerrainRenderer::sync(roam::DrawnMesh& mesh) {
+    DrawnTiles source(mesh);
+    const UploadStats stats = syncTiles(source);
+    synced_terrain_ = nullptr;
+    if (options_.validate)
+        validate(source);
+    return stats;
+}
+
+UploadStats TerrainRenderer::syncTiles(TileSource& source) {
     context_.makeCurrent();
     UploadStats stats;
-    if (!have_spec_ || !(terrain.spec() == spec_) ||
-        tiles_.size() != static_cast<std::size_t>(tess.tileCount())) {
+    if (!have_spec_ || !(source.spec() == spec_) ||
+        tiles_.size() != static_cast<std::size_t>(source.tileCount())) {
         // a new world: every buffer is rebuilt
         releaseTiles();
-        spec_ = terrain.spec();
+        spec_ = source.spec();
         have_spec_ = true;
         // colours follow the world's first heights (its samples, whichever tiles are loaded):
         // a crater must not recolour the whole map
-        std::tie(height_lo_, height_hi_) = TerrainProgram::heightRange(terrain);
-        tiles_.resize(static_cast<std::size_t>(tess.tileCount()));
+        std::tie(height_lo_, height_hi_) = source.heightRange();
+        tiles_.resize(static_cast<std::size_t>(source.tileCount()));
     }
     ++frame_;
-    builder_->newFrame();
-    for (std::int32_t t = 0; t < tess.tileCount(); ++t) {
+    for (std::int32_t t = 0; t < source.tileCount(); ++t) {
         TileBuffers& tb = tiles_[static_cast<std::size_t>(t)];
         // residency: buffers (and their CPU copy) for tiles in view or seen lately; a tile out
         // of view for longer gives them back and loads in full when it is seen again
-        if (tess.tileVisible(t)) {
+        if (source.visible(t)) {
             tb.last_visible = frame_;
             tb.seen = true;
         }
@@ -135,16 +154,14 @@ UploadStats TerrainRenderer::sync(roam::Tessellator& tess, const Terrain& terrai
         }
         const std::uint64_t before = stats.bytes();
         const bool loading = !tb.has_vertices;
-        if (!tb.has_vertices || tess.tileVerticesAllChanged(t) ||
-            !tess.tileVertexChanges(t).empty())
-            uploadVertices(tess, terrain, t, tb, stats);
+        if (!tb.has_vertices || source.verticesAllChanged(t) || !source.vertexChanges(t).empty())
+            uploadVertices(source, t, tb, stats);
         // a version moved with nothing marked (a grain gone, a chunk moved) leaves the buffer
         // as current as one rebuilt
-        tb.vertex_version = tess.tileVertexVersion(t);
-        roam::TileMesh& mesh = tess.tileMesh(t);
+        tb.vertex_version = source.vertexVersion(t);
         // a renderer that joins a running tessellator loads every list once
-        if (mesh.dirty() || !tb.has_indices)
-            uploadIndices(mesh, tb, stats);
+        if (source.indicesDirty(t) || !tb.has_indices)
+            uploadIndices(source, t, tb, stats);
         if (loading)
             stats.load_bytes += stats.bytes() - before;
     }
@@ -161,9 +178,6 @@ UploadStats TerrainRenderer::sync(roam::Tessellator& tess, const Terrain& terrai
     totals_.load_bytes += stats.load_bytes;
     totals_.grown_buffers += stats.grown_buffers;
     totals_.moved_bytes += stats.moved_bytes;
-    synced_terrain_ = &terrain;
-    if (options_.validate)
-        validate(tess, terrain);
     return stats;
 }
 
@@ -211,20 +225,16 @@ void TerrainRenderer::attachVertexBuffer(const TileBuffers& tb) {
 }
 
 void TerrainRenderer::uploadVertices(
-    roam::Tessellator& tess,
-    const Terrain& terrain,
-    std::int32_t tile,
-    TileBuffers& tb,
-    UploadStats& stats) {
-    const auto count = static_cast<std::uint32_t>(tess.tileVertexCount(tile));
+    TileSource& source, std::int32_t tile, TileBuffers& tb, UploadStats& stats) {
+    const std::uint32_t count = source.vertexCount(tile);
     const auto old_count = static_cast<std::uint32_t>(tb.shadow.size());
     // what to build: everything for a tile loaded (or reset), else the ranges the tessellator
     // marked, sorted and joined
     scratch_ranges_.clear();
-    if (!tb.has_vertices || tess.tileVerticesAllChanged(tile)) {
+    if (!tb.has_vertices || source.verticesAllChanged(tile)) {
         scratch_ranges_.push_back({0, count});
     } else {
-        for (const roam::VertexRange& r : tess.tileVertexChanges(tile))
+        for (const roam::VertexRange& r : source.vertexChanges(tile))
             scratch_ranges_.push_back({r.begin, std::min(r.end, count)});
         if (count > old_count) // the array only grows between resets: new grains, marked too
             scratch_ranges_.push_back({old_count, count});
@@ -244,7 +254,7 @@ void TerrainRenderer::uploadVertices(
         }
         scratch_ranges_.resize(kept);
     }
-    tess.takeVertexChanges(tile);
+    source.takeVertexChanges(tile);
 
     if (!tb.has_vertices) {
         tb.vertex_capacity = count; // exactly: most tiles never gain a block
@@ -270,7 +280,7 @@ void TerrainRenderer::uploadVertices(
     for (const roam::VertexRange& r : scratch_ranges_) {
         const std::uint32_t n = r.end - r.begin;
         scratch_vertices_.resize(n);
-        builder_->build(tess, terrain, tile, r.begin, scratch_vertices_);
+        source.vertices(tile, r.begin, scratch_vertices_);
         // send what differs from the buffer's contents; what the buffer draws is the true
         // height where this sends, the morphed one elsewhere (a bridged gap sends its drawn
         // height again)
@@ -381,15 +391,17 @@ UploadStats TerrainRenderer::morph(const roam::Tessellator& tess, const roam::Ca
     totals_.vertex_tiles += stats.vertex_tiles;
     totals_.vertex_uploads += stats.vertex_uploads;
     if (options_.validate && stats.vertex_bytes > 0 && synced_terrain_ != nullptr)
-        validate(tess, *synced_terrain_);
+        validate(TessellatorTiles(tess, *synced_terrain_, *builder_));
     return stats;
 }
 
-void TerrainRenderer::uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, UploadStats& stats) {
-    const std::uint32_t slots = mesh.slotCount();
-    const std::uint32_t* indices = mesh.indices().data();
+void TerrainRenderer::uploadIndices(
+    TileSource& source, std::int32_t tile, TileBuffers& tb, UploadStats& stats) {
+    const std::span<const std::uint32_t> list = source.indices(tile);
+    const auto slots = static_cast<std::uint32_t>(list.size() / 3);
+    const std::uint32_t* indices = list.data();
     std::uint64_t bytes = 0;
-    const bool whole = mesh.rewritten() || !tb.has_indices;
+    const bool whole = source.indicesRewritten(tile) || !tb.has_indices;
     if (slots > tb.index_capacity_slots || !tb.has_indices) {
         // grown by half again, so that a growing list is not moved every frame
         const std::uint64_t grown = std::uint64_t{tb.index_capacity_slots} * 3 / 2;
@@ -419,7 +431,8 @@ void TerrainRenderer::uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, Uploa
         }
     } else {
         // runs of dirty pages (UploadRun: joined while at most half clean), one GPU copy each
-        scratch_pages_.assign(mesh.dirtyPages().begin(), mesh.dirtyPages().end());
+        const std::span<const std::uint32_t> pages_written = source.dirtyPages(tile);
+        scratch_pages_.assign(pages_written.begin(), pages_written.end());
         std::sort(scratch_pages_.begin(), scratch_pages_.end());
         constexpr std::uint32_t kPage = roam::TileMesh::kSlotsPerPage;
         const std::uint32_t pages = (slots + kPage - 1) / kPage;
@@ -447,7 +460,7 @@ void TerrainRenderer::uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, Uploa
         }
         scratch_runs_.clear();
     }
-    mesh.takeChanges();
+    source.takeIndexChanges(tile);
     tb.has_indices = true;
     tb.slots = slots;
     stats.index_bytes += bytes;
@@ -456,19 +469,38 @@ void TerrainRenderer::uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, Uploa
 
 DrawStats TerrainRenderer::draw(
     const roam::Tessellator& tess, const roam::Camera& camera, const RenderOptions& options) {
+    return drawFrame(
+        tess.tileCount(), [&](std::int32_t t) { return tess.tileVisible(t); },
+        [&](std::int32_t t) { return tess.tileMesh(t).triangleCount(); }, camera, options);
+}
+
+DrawStats TerrainRenderer::draw(
+    const roam::DrawnMesh& mesh, const roam::Camera& camera, const RenderOptions& options) {
+    return drawFrame(
+        mesh.tileCount(), [&](std::int32_t t) { return mesh.tileVisible(t); },
+        [&](std::int32_t t) { return mesh.slotCount(t); }, camera, options);
+}
+
+template <class Visible, class Triangles>
+DrawStats TerrainRenderer::drawFrame(
+    std::int32_t tiles,
+    Visible&& visible,
+    Triangles&& triangles,
+    const roam::Camera& camera,
+    const RenderOptions& options) {
     context_.makeCurrent();
     DrawStats stats;
     const GlApi& gl = gl_;
     gl.Viewport(0, 0, context_.width(), context_.height());
     gl.ClearColor(options.sky.x, options.sky.y, options.sky.z, 1.0f);
     gl.Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-    if (tiles_.empty())
-        return stats;
+    if (tiles_.empty() || tiles_.size() != static_cast<std::size_t>(tiles))
+        return stats; // nothing synced, or not from this source
     program_->beginFrame(gl, camera, spec_, height_lo_, height_hi_, options);
 
     if (options.mode == DrawMode::kWireframe) {
         gl.PolygonMode(GL_FRONT_AND_BACK, GL_LINE);
-        drawTiles(tess, stats);
+        drawTiles(tiles, visible, triangles, stats);
     } else {
         gl.PolygonMode(GL_FRONT_AND_BACK, GL_FILL);
         if (options.mode == DrawMode::kShadedWireframe) {
@@ -476,13 +508,13 @@ DrawStats TerrainRenderer::draw(
             gl.Enable(GL_POLYGON_OFFSET_FILL);
             gl.PolygonOffset(1.0f, 1.0f);
         }
-        drawTiles(tess, stats);
+        drawTiles(tiles, visible, triangles, stats);
         if (options.mode == DrawMode::kShadedWireframe) {
             gl.Disable(GL_POLYGON_OFFSET_FILL);
             gl.PolygonMode(GL_FRONT_AND_BACK, GL_LINE);
             program_->setLineColour(gl, 0.05f, 0.05f, 0.08f, 0.6f);
             DrawStats lines;
-            drawTiles(tess, lines);
+            drawTiles(tiles, visible, triangles, lines);
         }
     }
     gl.PolygonMode(GL_FRONT_AND_BACK, GL_FILL);
@@ -491,19 +523,21 @@ DrawStats TerrainRenderer::draw(
     return stats;
 }
 
-void TerrainRenderer::drawTiles(const roam::Tessellator& tess, DrawStats& stats) {
+template <class Visible, class Triangles>
+void TerrainRenderer::drawTiles(
+    std::int32_t tiles, Visible& visible, Triangles& triangles, DrawStats& stats) {
     // nothing per draw but the tile's vertex array: every tile is drawn with the frame's
     // uniforms, so shared vertices transform to the same bits (watertight)
-    for (std::int32_t t = 0; t < tess.tileCount(); ++t) {
+    for (std::int32_t t = 0; t < tiles; ++t) {
         const TileBuffers& tb = tiles_[static_cast<std::size_t>(t)];
-        if (tb.slots == 0 || !tess.tileVisible(t))
+        if (tb.slots == 0 || !visible(t))
             continue;
         gl_.BindVertexArray(tb.vao);
         // every slot: freed ones hold degenerate triangles, which draw nothing
         gl_.DrawElements(
             GL_TRIANGLES, static_cast<GLsizei>(tb.slots * 3), GL_UNSIGNED_INT, nullptr);
         ++stats.tiles;
-        stats.triangles += tess.tileMesh(t).triangleCount();
+        stats.triangles += triangles(t);
     }
 }
 

@@ -1,9 +1,11 @@
 // RendererOptions::validate: what the GPU's buffers hold, read back and compared, for every
 // resident tile, with what the renderer sent (every vertex, the index list slot for slot) and
-// with a fresh build from the tessellator: every index inside the vertex array, every vertex an
-// index refers to at its position and height bit for bit, and, for one tile per call in turn
-// (the costly part: surface queries), its normal too. Vertices no index refers to (a grain gone)
-// may hold anything.
+// with a fresh build from the source (the tessellator, or the worker's copy): every index inside
+// the vertex array, every vertex an index refers to at its position and height bit for bit, and,
+// for one tile per call in turn (the costly part: surface queries), its normal too. Vertices no
+// index refers to (a grain gone) may hold anything.
+
+#include "tile_source.h"
 
 #include <terrain/render/terrain_renderer.h>
 
@@ -26,7 +28,7 @@ bool sameBits(const GpuVertex& a, const GpuVertex& b) {
 
 } // namespace
 
-void TerrainRenderer::validate(const roam::Tessellator& tess, const Terrain& terrain) {
+void TerrainRenderer::validate(const TileSource& source) {
     ValidationReport& r = validation_;
     ++r.syncs;
     const auto note = [&](const std::string& problem) {
@@ -47,8 +49,8 @@ void TerrainRenderer::validate(const roam::Tessellator& tess, const Terrain& ter
     };
     // the tile whose normals this call recomputes: the next resident one after the last
     std::int32_t normals_tile = -1;
-    for (std::int32_t k = 1; k <= tess.tileCount(); ++k) {
-        const std::int32_t t = (validated_normals_ + k) % tess.tileCount();
+    for (std::int32_t k = 1; k <= source.tileCount(); ++k) {
+        const std::int32_t t = (validated_normals_ + k) % source.tileCount();
         if (tiles_[static_cast<std::size_t>(t)].has_vertices) {
             normals_tile = t;
             break;
@@ -58,7 +60,7 @@ void TerrainRenderer::validate(const roam::Tessellator& tess, const Terrain& ter
         validated_normals_ = normals_tile;
     builder_->newFrame(); // the terrain may have changed since the sync (morph() validates too)
 
-    for (std::int32_t t = 0; t < tess.tileCount(); ++t) {
+    for (std::int32_t t = 0; t < source.tileCount(); ++t) {
         const TileBuffers& tb = tiles_[static_cast<std::size_t>(t)];
         if (tb.vao == 0)
             continue;
@@ -66,11 +68,11 @@ void TerrainRenderer::validate(const roam::Tessellator& tess, const Terrain& ter
         const std::string tile = "tile " + std::to_string(t);
         const auto count = static_cast<std::uint32_t>(tb.shadow.size());
         if (tb.has_vertices) {
-            if (count != static_cast<std::uint32_t>(tess.tileVertexCount(t))) {
+            if (count != source.vertexCount(t)) {
                 ++r.vertex_mismatches;
                 note(
                     tile + ": " + std::to_string(count) + " vertices sent, the array has " +
-                    std::to_string(tess.tileVertexCount(t)));
+                    std::to_string(source.vertexCount(t)));
                 continue;
             }
             if (!readBack(tb.vertex_buffer, std::uint64_t{count} * sizeof(GpuVertex))) {
@@ -111,7 +113,8 @@ void TerrainRenderer::validate(const roam::Tessellator& tess, const Terrain& ter
         }
         if (!tb.has_indices)
             continue;
-        const roam::TileMesh& mesh = tess.tileMesh(t);
+        const std::span<const std::uint32_t> list = source.indices(t);
+        const auto list_slots = static_cast<std::uint32_t>(list.size() / 3);
         const std::uint64_t n = std::uint64_t{tb.slots} * 3;
         if (!readBack(tb.index_buffer, n * sizeof(std::uint32_t))) {
             ++r.short_buffers;
@@ -136,13 +139,12 @@ void TerrainRenderer::validate(const roam::Tessellator& tess, const Terrain& ter
             }
             held.checked_indices.assign(readback_.begin(), readback_.end());
         }
-        if (mesh.slotCount() != tb.slots) {
+        if (list_slots != tb.slots) {
             ++r.index_mismatches;
             note(
                 tile + ": " + std::to_string(tb.slots) + " slots drawn, the list has " +
-                std::to_string(mesh.slotCount()));
+                std::to_string(list_slots));
         }
-        const std::span<const std::uint32_t> list = mesh.indices();
         referenced_.assign(count, 0);
         for (std::uint64_t i = 0; i < n; ++i) {
             std::uint32_t got = 0;
@@ -165,9 +167,9 @@ void TerrainRenderer::validate(const roam::Tessellator& tess, const Terrain& ter
         const bool normals = t == normals_tile;
         expected_vertices_.resize(count);
         if (normals)
-            builder_->build(tess, terrain, t, 0, expected_vertices_);
+            source.vertices(t, 0, expected_vertices_);
         else
-            builder_->positions(tess, t, 0, expected_vertices_);
+            source.positions(t, 0, expected_vertices_);
         for (std::uint32_t i = 0; i < count; ++i) {
             if (referenced_[i] == 0)
                 continue;

@@ -50,7 +50,7 @@ void DeltaCollector::delivered() {
     new_tiles_ = false;
 }
 
-void DeltaCollector::takeChanges(Tessellator& tess) {
+void DeltaCollector::takeChanges(Tessellator& tess, const WorldSpec& spec) {
     const std::int32_t tiles = tess.tileCount();
     const auto list = [&](std::int32_t t) {
         if (tile_listed_[at(t)] == 0) {
@@ -58,8 +58,9 @@ void DeltaCollector::takeChanges(Tessellator& tess) {
             pending_tiles_.push_back(t);
         }
     };
-    if (pending_.size() != at(tiles)) {
-        // a new set of tiles: the reader starts over, every tile whole
+    if (pending_.size() != at(tiles) || !(spec == spec_)) {
+        // a new set of tiles (another world): the reader starts over, every tile whole
+        spec_ = spec;
         pending_.assign(at(tiles), Pending{});
         tile_listed_.assign(at(tiles), 0);
         pending_tiles_.clear();
@@ -109,12 +110,13 @@ void DeltaCollector::takeChanges(Tessellator& tess) {
 }
 
 void DeltaCollector::collect(Tessellator& tess, const Terrain& terrain, MeshDelta& out) {
-    takeChanges(tess);
+    takeChanges(tess, terrain.spec());
     ++step_;
     out.clear();
     out.step = step_;
     out.new_tiles = new_tiles_;
     out.tile_count = tess.tileCount();
+    out.spec = terrain.spec();
     out.visible.resize(at(out.tile_count));
     for (std::int32_t t = 0; t < out.tile_count; ++t)
         out.visible[at(t)] = tess.tileVisible(t) ? 1 : 0;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <limits>
 
 namespace terrain::roam {
 
@@ -20,8 +21,10 @@ bool DrawnMesh::apply(const MeshDelta& delta) {
     // a delta for other tiles than the copy's must start them over (one was missed: a bug)
     if (!delta.new_tiles && delta.tile_count != tileCount())
         return false;
-    if (delta.new_tiles)
+    if (delta.new_tiles) {
         tiles_.assign(at(delta.tile_count), TileCopy{});
+        spec_ = delta.spec;
+    }
     step_ = delta.step;
     for (std::int32_t t = 0; t < delta.tile_count && at(t) < tiles_.size(); ++t)
         tiles_[at(t)].visible = delta.visible[at(t)] != 0;
@@ -69,17 +72,33 @@ bool DrawnMesh::apply(const MeshDelta& delta) {
             copy.vertex_changes.clear();
         }
     }
+    if (delta.new_tiles) {
+        // the colours' scale: the base grids hold every sample of the world
+        float lo = std::numeric_limits<float>::max();
+        float hi = std::numeric_limits<float>::lowest();
+        for (const TileCopy& copy : tiles_)
+            for (std::size_t i = 0;
+                 i < std::min<std::size_t>(copy.vertices.size(), kTileBaseVertices); ++i) {
+                lo = std::min(lo, copy.vertices[i].z);
+                hi = std::max(hi, copy.vertices[i].z);
+            }
+        height_range_ = lo <= hi ? std::pair{lo, hi} : std::pair{0.0f, 0.0f};
+    }
     return true;
 }
 
-void DrawnMesh::takeChanges(std::int32_t tile) {
+void DrawnMesh::takeVertexChanges(std::int32_t tile) {
+    TileCopy& copy = tiles_[at(tile)];
+    copy.vertex_changes.clear();
+    copy.all_vertices = false;
+}
+
+void DrawnMesh::takeIndexChanges(std::int32_t tile) {
     TileCopy& copy = tiles_[at(tile)];
     for (const std::uint32_t page : copy.dirty_pages)
         copy.page_flags[page] = 0;
     copy.dirty_pages.clear();
-    copy.vertex_changes.clear();
     copy.rewritten = false;
-    copy.all_vertices = false;
 }
 
 std::size_t DrawnMesh::memoryBytes() const {

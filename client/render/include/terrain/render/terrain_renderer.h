@@ -21,6 +21,7 @@
 #include <terrain/render/gl_context.h>
 #include <terrain/render/upload_ring.h>
 #include <terrain/roam/camera.h>
+#include <terrain/roam/drawn_mesh.h>
 #include <terrain/roam/tessellator.h>
 #include <terrain/roam/tile_vertex_builder.h>
 #include <terrain/terrain.h>
@@ -36,6 +37,7 @@
 namespace terrain::render {
 
 class TerrainProgram;
+class TileSource;
 struct UploadRun;
 
 /// One vertex in a tile's buffer (roam::DrawVertex: lattice x and y, z in metres, packed normal).
@@ -123,6 +125,10 @@ class TerrainRenderer {
     /// that terrainChanged() touched since is drawn as it stands (its freed slots are
     /// degenerate triangles, all slots are drawn).
     UploadStats sync(roam::Tessellator& tess, const Terrain& terrain);
+    /// The same from the frame thread's copy of a tessellation worker's tiles (the worker built
+    /// the vertices: nothing here reads the terrain), taking the copy's changes. A renderer
+    /// follows one source: a tessellator or a copy. morph() does not apply to a copy.
+    UploadStats sync(roam::DrawnMesh& mesh);
     /// Geomorphing: with `fraction` in (0, 1), morph() draws each vertex sliding between its
     /// hypotenuse's midpoint and its height (roam::Tessellator::morphedHeights), reaching it at
     /// the tessellator's threshold / fraction; the tessellator must then refine to fraction x
@@ -138,6 +144,8 @@ class TerrainRenderer {
     /// framebuffer.
     DrawStats
     draw(const roam::Tessellator& tess, const roam::Camera& camera, const RenderOptions& options);
+    DrawStats
+    draw(const roam::DrawnMesh& mesh, const roam::Camera& camera, const RenderOptions& options);
 
     /// Totals since creation.
     const UploadStats& totals() const { return totals_; }
@@ -190,13 +198,9 @@ class TerrainRenderer {
     /// A new buffer of `bytes` (poisoned when validating), bound to nothing.
     unsigned createBuffer(std::uint64_t bytes);
     void attachVertexBuffer(const TileBuffers& tb);
-    void uploadVertices(
-        roam::Tessellator& tess,
-        const Terrain& terrain,
-        std::int32_t tile,
-        TileBuffers& tb,
-        UploadStats& stats);
-    void uploadIndices(roam::TileMesh& mesh, TileBuffers& tb, UploadStats& stats);
+    UploadStats syncTiles(TileSource& source);
+    void uploadVertices(TileSource& source, std::int32_t tile, TileBuffers& tb, UploadStats& stats);
+    void uploadIndices(TileSource& source, std::int32_t tile, TileBuffers& tb, UploadStats& stats);
     /// Appends to scratch_runs_ the runs of vertices first + k for which `differs(k)` holds,
     /// bridging gaps of up to kVertexRunGap.
     template <class Differs>
@@ -204,8 +208,17 @@ class TerrainRenderer {
     /// Joins scratch_runs_ (upload_runs.h) and stages them into the tile's vertex buffer from
     /// its shadow, with the drawn heights; returns the bytes.
     std::uint64_t stageVertexRuns(const TileBuffers& tb, UploadStats& stats);
-    void validate(const roam::Tessellator& tess, const Terrain& terrain);
-    void drawTiles(const roam::Tessellator& tess, DrawStats& stats);
+    void validate(const TileSource& source);
+    /// Clears and draws the tiles for which visible(t) holds (triangles(t) counted).
+    template <class Visible, class Triangles>
+    DrawStats drawFrame(
+        std::int32_t tiles,
+        Visible&& visible,
+        Triangles&& triangles,
+        const roam::Camera& camera,
+        const RenderOptions& options);
+    template <class Visible, class Triangles>
+    void drawTiles(std::int32_t tiles, Visible& visible, Triangles& triangles, DrawStats& stats);
 
     const GlContext& context_;
     const GlApi& gl_;
@@ -216,7 +229,7 @@ class TerrainRenderer {
     std::vector<TileBuffers> tiles_;
     WorldSpec spec_{};
     bool have_spec_ = false;
-    const Terrain* synced_terrain_ = nullptr; ///< the last sync()'s (validation after morph())
+    const Terrain* synced_terrain_ = nullptr; ///< the last sync(tess)'s (validation after morph())
     float height_lo_ = 0.0f;
     float height_hi_ = 0.0f;
     std::uint64_t frame_ = 0; ///< syncs since creation

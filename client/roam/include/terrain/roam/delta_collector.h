@@ -48,7 +48,7 @@ class DeltaCollector {
         bool any() const { return rewritten || all_vertices || !pages.empty() || !ranges.empty(); }
     };
 
-    void takeChanges(Tessellator& tess);
+    void takeChanges(Tessellator& tess, const WorldSpec& spec);
     void write(Tessellator& tess, const Terrain& terrain, std::int32_t t, MeshDelta& out);
 
     std::vector<Pending> pending_;

@@ -13,9 +13,11 @@
 #include <terrain/roam/mesh_delta.h>
 #include <terrain/roam/tile_vertex_arrays.h>
 #include <terrain/roam/tile_vertex_builder.h>
+#include <terrain/world_spec.h>
 
 #include <cstdint>
 #include <span>
+#include <utility>
 #include <vector>
 
 namespace terrain::roam {
@@ -29,6 +31,10 @@ class DrawnMesh {
     /// The tessellation step the copy holds (0: none yet).
     std::uint64_t step() const { return step_; }
     std::int32_t tileCount() const { return static_cast<std::int32_t>(tiles_.size()); }
+    /// The world the tiles are of, and its lowest and highest ground (metres, from the base
+    /// grid as the tiles first came).
+    const WorldSpec& spec() const { return spec_; }
+    std::pair<float, float> heightRange() const { return height_range_; }
     bool tileVisible(std::int32_t tile) const { return tiles_[at(tile)].visible; }
     /// Three indices per slot into the tile's vertices; every slot is drawn.
     std::span<const std::uint32_t> indices(std::int32_t tile) const {
@@ -57,7 +63,12 @@ class DrawnMesh {
     std::span<const VertexRange> vertexChanges(std::int32_t tile) const {
         return tiles_[at(tile)].vertex_changes;
     }
-    void takeChanges(std::int32_t tile);
+    void takeVertexChanges(std::int32_t tile);
+    void takeIndexChanges(std::int32_t tile);
+    void takeChanges(std::int32_t tile) {
+        takeVertexChanges(tile);
+        takeIndexChanges(tile);
+    }
 
     /// Bytes held, capacity included.
     std::size_t memoryBytes() const;
@@ -81,6 +92,8 @@ class DrawnMesh {
 
     std::vector<TileCopy> tiles_;
     std::uint64_t step_ = 0;
+    WorldSpec spec_{};
+    std::pair<float, float> height_range_{0.0f, 0.0f};
 };
 
 } // namespace terrain::roam

@@ -9,6 +9,7 @@
 
 #include <terrain/roam/tile_mesh.h>
 #include <terrain/roam/tile_vertex_builder.h>
+#include <terrain/world_spec.h>
 
 #include <cstddef>
 #include <cstdint>
@@ -46,6 +47,7 @@ struct MeshDelta {
     /// A new set of tiles (a new world, or the first delta): the reader starts every tile over.
     bool new_tiles = false;
     std::int32_t tile_count = 0;
+    WorldSpec spec{};                        ///< the world the tiles are of
     std::vector<std::uint8_t> visible;       ///< per tile, 0 or 1
     std::vector<Tile> tiles;                 ///< tiles with changes, ascending
     std::vector<std::uint32_t> pages;        ///< page numbers, per tile ascending
