@@ -15,6 +15,12 @@
 // as `render`), with --frame-ms steering the triangle cap as the bot does. The authority is gone
 // before the client starts, so the process's resident set is the client's (with the ops it
 // will receive).
+// --async: the tessellation runs on a worker thread (client::TessellationWorker), as the bot and
+// the viewer run it; the frame thread, paced at --fps in real time, applies the frame's ops to
+// its replica, posts them with the camera and takes the worker's newest tiles (`frame_thread`:
+// what the frame pays for the terrain, no GL), and the report gives the worker's steps (apply,
+// update, collect per step; the ops each carried), the drawn mesh's lag in frames and its error
+// bound at the camera it was made for. With --render the frame draws the worker's tiles.
 // The goals (client battle budget) are reported as met / not met, never asserted.
 // Exit status: 0; 1 when a replica hash differs from the authority's; 2 on a bad option.
 
@@ -26,6 +32,7 @@
 #include <terrain/client/op_pacing.h>
 #include <terrain/client/replica.h>
 #include <terrain/client/tessellation_feed.h>
+#include <terrain/client/tessellation_worker.h>
 #include <terrain/procedural_map.h>
 #include <terrain/render/offscreen.h>
 #include <terrain/render/terrain_renderer.h>
@@ -46,6 +53,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace {
@@ -112,6 +120,8 @@ struct Settings {
     int join_after = 0;
     int min_frames = 0;
     bool render = false;
+    bool async = false;
+    double fps = 60.0;
     double frame_target_ms = 0.0;
     ProceduralMapOptions map;
     BattleOptions battle;
@@ -152,6 +162,9 @@ std::optional<int> parseSettings(int argc, char** argv, Settings& s) {
     app.add_option("--frames", s.min_frames, "frames to fly at least (after the ops run out)")
         ->check(CLI::NonNegativeNumber);
     app.add_flag("--render", s.render, "draw every frame offscreen (OSMesa)");
+    app.add_flag("--async", s.async, "tessellate on a worker thread; the frame loop runs at --fps");
+    app.add_option("--fps", s.fps, "--async: frames a second the frame loop keeps (real time)")
+        ->check(CLI::Range(1.0, 1000.0));
     app.add_option(
            "--frame-ms", s.frame_target_ms,
            "frame time the triangle cap is steered to hold, as the bot does (0: off)")
@@ -337,6 +350,202 @@ Tally fly(
     return t;
 }
 
+/// What the asynchronous flight measured (--async).
+struct AsyncTally {
+    std::vector<double> frame_thread;       ///< apply + post + take, every frame (ms)
+    std::vector<double> burst_frame_thread; ///< of which the frames a burst arrived in
+    std::vector<double> apply, post, take;  ///< the parts, every frame (ms)
+    std::vector<double> lag;                ///< frames the drawn mesh is behind the camera
+    std::vector<double> error_bound;        ///< of the drawn mesh, for the camera it was made for
+    std::vector<double> triangles;          ///< of the drawn mesh
+    std::vector<double> render_ms;
+    std::vector<double> late_ms; ///< how far past its deadline each frame started
+    std::vector<client::WorkerStep> steps;
+    int max_delay_frames = 0;
+    bool hashes_agree = true;
+};
+
+/// The flight with the tessellation on a worker: the frame loop keeps --fps in real time.
+AsyncTally flyAsync(
+    const Settings& s,
+    const Battle& battle,
+    client::Replica& replica,
+    client::TessellationWorker& worker,
+    Renderer& renderer) {
+    AsyncTally t;
+    roam::DrawnMesh mesh;
+    const std::vector<SentOp>& sent = battle.sent;
+    std::deque<int> arrived_at;
+    client::OpPacer pacer(s.pacing);
+    std::size_t next = 0;
+    std::uint64_t seq = 0;
+    const auto period = std::chrono::duration_cast<bench::Clock::duration>(
+        std::chrono::duration<double>(1.0 / s.fps));
+    auto deadline = bench::Clock::now();
+    double last_frame_ms = 0.0;
+    for (int f = 1; next < sent.size() || f <= s.min_frames; ++f) {
+        deadline += period;
+        const auto started = bench::Clock::now();
+        t.late_ms.push_back(std::max(
+            0.0, std::chrono::duration<double, std::milli>(started - (deadline - period)).count()));
+        const std::size_t received = next + arrived_at.size();
+        const int arriving = received >= sent.size() ? 0
+                             : f % s.burst_every == 0
+                                 ? static_cast<int>(std::min<std::size_t>(
+                                       static_cast<std::size_t>(s.burst), sent.size() - received))
+                                 : 1;
+        for (int k = 0; k < arriving; ++k)
+            arrived_at.push_back(f);
+        const std::size_t applying = pacer.take(arrived_at.size());
+        const auto t0 = bench::Clock::now();
+        for (std::size_t k = 0; k < applying; ++k, ++next) {
+            auto outcome = replica.applyOp(++seq, sent[next].op, sent[next].world_hash);
+            if (!outcome || *outcome != client::Replica::OpOutcome::kApplied)
+                t.hashes_agree = false;
+        }
+        const double apply_ms = bench::msSince(t0);
+        for (std::size_t k = 0; k < applying; ++k) {
+            t.max_delay_frames = std::max(t.max_delay_frames, f - arrived_at.front());
+            arrived_at.pop_front();
+        }
+        const roam::Camera camera =
+            flightCamera(s.flight, f, replica.terrain(), battle.options, s.width, s.height);
+        const auto t1 = bench::Clock::now();
+        worker.post(camera, s.frame_target_ms > 0.0 ? last_frame_ms : 0.0);
+        const double post_ms = bench::msSince(t1);
+        const auto t2 = bench::Clock::now();
+        worker.take(mesh);
+        const double take_ms = bench::msSince(t2);
+        const double total = apply_ms + post_ms + take_ms;
+        t.frame_thread.push_back(total);
+        if (arriving > 1)
+            t.burst_frame_thread.push_back(total);
+        t.apply.push_back(apply_ms);
+        t.post.push_back(post_ms);
+        t.take.push_back(take_ms);
+        t.lag.push_back(static_cast<double>(worker.lag()));
+        t.error_bound.push_back(worker.taken().stats.error_bound_pixels);
+        t.triangles.push_back(static_cast<double>(worker.taken().stats.triangles));
+        double draw_ms = 0.0;
+        if (renderer.terrain && mesh.tileCount() > 0) {
+            const auto t3 = bench::Clock::now();
+            renderer.terrain->sync(mesh);
+            renderer.terrain->draw(mesh, camera, render::RenderOptions{});
+            renderer.gl->present();
+            draw_ms = bench::msSince(t3);
+            t.render_ms.push_back(draw_ms);
+        }
+        last_frame_ms = total + draw_ms;
+        std::this_thread::sleep_until(deadline);
+    }
+    // the worker's view of the same world: its last step has every op
+    for (int k = 0; k < 1000 && worker.taken().seq < seq; ++k) {
+        worker.post(flightCamera(
+            s.flight, static_cast<int>(t.frame_thread.size()), replica.terrain(), battle.options,
+            s.width, s.height));
+        std::this_thread::sleep_for(period);
+        worker.take(mesh);
+    }
+    if (replica.worldHash() != battle.final_hash || worker.taken().world_hash != battle.final_hash)
+        t.hashes_agree = false;
+    t.steps = worker.stepLog();
+    return t;
+}
+
+/// The asynchronous run's JSON report and summary.
+Json asyncReportOf(const Settings& s, const Battle& battle, const AsyncTally& t) {
+    std::vector<double> step_ms, step_update, step_apply, step_collect, crater_steps, delta_kib;
+    std::vector<double> per_op_ms;
+    for (const client::WorkerStep& w : t.steps) {
+        const double total = w.apply_ms + w.update_ms + w.collect_ms;
+        step_ms.push_back(total);
+        step_update.push_back(w.update_ms);
+        step_apply.push_back(w.apply_ms);
+        step_collect.push_back(w.collect_ms);
+        delta_kib.push_back(static_cast<double>(w.delta_bytes) / 1024.0);
+        if (w.ops == 1)
+            crater_steps.push_back(total);
+        if (w.ops > 0)
+            per_op_ms.push_back(total / static_cast<double>(w.ops));
+    }
+    const bench::Summary frame = bench::summarize(t.frame_thread);
+    const bench::Summary crater = bench::summarize(crater_steps);
+    const bench::Summary lag = bench::summarize(t.lag);
+    const bench::Summary error = bench::summarize(t.error_bound);
+    Json report{
+        {"benchmark", "client_battle_bench"},
+        {"mode", "async"},
+        {"date", bench::isoNow()},
+        {"cpu", bench::cpuModel()},
+        {"cores", std::thread::hardware_concurrency()},
+        {"map", "procedural " + std::to_string(s.map.width) + " x " + std::to_string(s.map.width)},
+        {"flight", s.flight},
+        {"viewport", std::to_string(s.width) + " x " + std::to_string(s.height)},
+        {"tau_pixels", s.tau},
+        {"max_triangles", s.max_triangles},
+        {"shots", s.shots},
+        {"ops", battle.sent.size()},
+        {"fps", s.fps},
+        {"frames", t.frame_thread.size()},
+        {"render", s.render},
+        {"hashes_agree", t.hashes_agree},
+        {"frame_thread_ms",
+         Json{
+             {"total", summaryJson(frame)},
+             {"burst_frames", summaryJson(bench::summarize(t.burst_frame_thread))},
+             {"apply", summaryJson(bench::summarize(t.apply))},
+             {"post", summaryJson(bench::summarize(t.post))},
+             {"take", summaryJson(bench::summarize(t.take))}}},
+        {"frame_late_ms", summaryJson(bench::summarize(t.late_ms))},
+        {"render_ms", summaryJson(bench::summarize(t.render_ms))},
+        {"lag_frames", summaryJson(lag)},
+        {"error_bound_pixels", summaryJson(error)},
+        {"triangles", summaryJson(bench::summarize(t.triangles))},
+        {"worker",
+         Json{
+             {"steps", t.steps.size()},
+             {"step_ms", summaryJson(bench::summarize(step_ms))},
+             {"apply_ms", summaryJson(bench::summarize(step_apply))},
+             {"update_ms", summaryJson(bench::summarize(step_update))},
+             {"collect_ms", summaryJson(bench::summarize(step_collect))},
+             {"one_crater_step_ms", summaryJson(crater)},
+             {"per_op_ms", summaryJson(bench::summarize(per_op_ms))},
+             {"delta_kib", summaryJson(bench::summarize(delta_kib))}}},
+        {"ops_waited_frames_max", t.max_delay_frames},
+        {"goals", Json{
+                      {"frame_thread_p99_le_2ms", frame.p99 <= 2.0},
+                      {"error_bound_p50_le_1_2px", error.p50 <= 1.2},
+                      {"error_bound_p99_le_3px", error.p99 <= 3.0},
+                      {"lag_p99_le_3_frames", lag.p99 <= 3.0},
+                      {"worker_crater_p50_le_3ms", crater.p50 <= 3.0},
+                      {"worker_crater_p99_le_8ms", crater.p99 <= 8.0}}}};
+    std::printf(
+        "client_battle_bench --async: %zu ops, %zu frames at %.0f fps, %s flight, tau %.2g px, "
+        "%d x %d%s\n",
+        battle.sent.size(), t.frame_thread.size(), s.fps, s.flight.c_str(), s.tau, s.width,
+        s.height, s.render ? ", rendered (OSMesa)" : "");
+    std::printf(
+        "  frame thread ms: p50 %.3f p99 %.3f max %.3f (burst frames p99 %.3f; apply p99 %.3f, "
+        "post p99 %.3f, take p99 %.3f)\n",
+        frame.p50, frame.p99, frame.max, bench::summarize(t.burst_frame_thread).p99,
+        bench::summarize(t.apply).p99, bench::summarize(t.post).p99, bench::summarize(t.take).p99);
+    std::printf(
+        "  worker: %zu steps, step p50 %.2f p99 %.2f ms; one-crater steps p50 %.2f p99 %.2f ms; "
+        "per op p50 %.2f ms; delta p50 %.0f KiB\n",
+        t.steps.size(), bench::summarize(step_ms).p50, bench::summarize(step_ms).p99, crater.p50,
+        crater.p99, bench::summarize(per_op_ms).p50, bench::summarize(delta_kib).p50);
+    std::printf(
+        "  drawn mesh: lag p50 %.0f p99 %.0f max %.0f frames; error bound p50 %.2f p99 %.2f px; "
+        "triangles p50 %.0f; hashes %s\n",
+        lag.p50, lag.p99, lag.max, error.p50, error.p99, bench::summarize(t.triangles).p50,
+        t.hashes_agree ? "agree" : "DIFFER");
+    if (!t.render_ms.empty())
+        std::printf(
+            "  render (sync + draw) ms: p50 %.1f p99 %.1f\n", bench::summarize(t.render_ms).p50,
+            bench::summarize(t.render_ms).p99);
+    return report;
+}
+
 /// The JSON report and the summary on stdout.
 Json reportOf(
     const Settings& s,
@@ -480,6 +689,30 @@ int main(int argc, char** argv) {
     to.max_detail_blocks = s.max_blocks;
     to.work_budget = s.work_budget;
     to.stale_block_budget = s.stale_budget;
+    if (s.async) {
+        Result<Renderer> renderer = makeRenderer(s);
+        if (!renderer) {
+            std::fprintf(stderr, "client_battle_bench: %s\n", renderer.error().message.c_str());
+            return 2;
+        }
+        client::TessellationWorkerOptions wo;
+        wo.view.tessellation = to;
+        wo.view.budget.target_ms = s.frame_target_ms;
+        wo.view.budget.max_triangles = s.max_triangles;
+        wo.keep_step_log = true;
+        client::TessellationWorker worker(replica, wo);
+        const AsyncTally t = flyAsync(s, battle, replica, worker, *renderer);
+        const Json json = asyncReportOf(s, battle, t);
+        if (!s.out.empty()) {
+            std::ofstream file(s.out);
+            if (!file) {
+                std::fprintf(stderr, "client_battle_bench: cannot write %s\n", s.out.c_str());
+                return 2;
+            }
+            file << json.dump(2) << "\n";
+        }
+        return t.hashes_agree ? 0 : 1;
+    }
     const auto build_start = bench::Clock::now();
     roam::Tessellator tess(replica.terrain(), to);
     tess.update(flightCamera(s.flight, 0, replica.terrain(), battle.options, s.width, s.height));

@@ -154,8 +154,10 @@ TEST(RenderWorker, RunningFreeTheBuffersHoldTheCopyAndThePictureHasNoHoles) {
         scene.renderer->sync(mesh);
         // the picture of the mesh the worker made for its camera (the newest camera would show
         // the map's padding or sky past a lagging mesh's visible tiles)
-        const roam::Camera& drawn_for = flight[static_cast<std::size_t>(
-            std::min<std::uint64_t>(worker.taken().frame, flight.size()) - 1)].camera;
+        const roam::Camera& drawn_for =
+            flight[static_cast<std::size_t>(
+                       std::min<std::uint64_t>(worker.taken().frame, flight.size()) - 1)]
+                .camera;
         roam::Camera view = drawn_for;
         const int drawn_frame = static_cast<int>(worker.taken().frame) - 1;
         if (drawn_frame % 30 >= 24)
@@ -175,8 +177,7 @@ TEST(RenderWorker, RunningFreeTheBuffersHoldTheCopyAndThePictureHasNoHoles) {
     std::printf(
         "free worker: %d craters, %llu deltas taken of %llu frames, lag up to %llu frames\n",
         battle.craters, static_cast<unsigned long long>(taken),
-        static_cast<unsigned long long>(worker.posted()),
-        static_cast<unsigned long long>(max_lag));
+        static_cast<unsigned long long>(worker.posted()), static_cast<unsigned long long>(max_lag));
 }
 
 } // namespace

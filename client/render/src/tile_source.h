@@ -76,8 +76,7 @@ class TessellatorTiles final : public TileSource {
         return tess_.tileVertexChanges(tile);
     }
     void takeVertexChanges(std::int32_t tile) override { changes_->takeVertexChanges(tile); }
-    void
-    vertices(std::int32_t tile, std::uint32_t first, std::span<GpuVertex> out) const override {
+    void vertices(std::int32_t tile, std::uint32_t first, std::span<GpuVertex> out) const override {
         builder_.build(tess_, terrain_, tile, first, out);
     }
     void
@@ -127,8 +126,7 @@ class DrawnTiles final : public TileSource {
         return mesh_.vertexChanges(tile);
     }
     void takeVertexChanges(std::int32_t tile) override { mesh_.takeVertexChanges(tile); }
-    void
-    vertices(std::int32_t tile, std::uint32_t first, std::span<GpuVertex> out) const override;
+    void vertices(std::int32_t tile, std::uint32_t first, std::span<GpuVertex> out) const override;
     void
     positions(std::int32_t tile, std::uint32_t first, std::span<GpuVertex> out) const override {
         vertices(tile, first, out);
@@ -140,9 +138,7 @@ class DrawnTiles final : public TileSource {
         return mesh_.slotCount(tile); // dense: the worker's lists are taken at a frame's end
     }
     bool indicesDirty(std::int32_t tile) const override { return mesh_.indicesDirty(tile); }
-    bool indicesRewritten(std::int32_t tile) const override {
-        return mesh_.indicesRewritten(tile);
-    }
+    bool indicesRewritten(std::int32_t tile) const override { return mesh_.indicesRewritten(tile); }
     std::span<const std::uint32_t> dirtyPages(std::int32_t tile) const override {
         return mesh_.dirtyPages(tile);
     }

@@ -75,6 +75,11 @@ bool TessellationWorker::take(roam::DrawnMesh& mesh) {
     return changed;
 }
 
+std::vector<WorkerStep> TessellationWorker::stepLog() const {
+    std::lock_guard lock(log_mutex_);
+    return log_;
+}
+
 void TessellationWorker::run() {
     std::vector<ReplicaChange> changes;
     std::uint64_t done = 0;
@@ -104,8 +109,10 @@ void TessellationWorker::run() {
         auto start = std::chrono::steady_clock::now();
         // the same changes in the same order as the replica: the same bits (a failure there
         // fails here too, and the replica's owner resyncs it, which reaches us as a state)
-        for (const ReplicaChange& change : changes)
+        for (const ReplicaChange& change : changes) {
             (void)world_.replay(change);
+            info.ops += change.kind == ReplicaChange::Kind::kOp ? 1 : 0;
+        }
         changes.clear();
         view_->absorb();
         if (tau)
@@ -133,6 +140,10 @@ void TessellationWorker::run() {
         info.threshold = view_->tessellator().threshold();
         info.delta_bytes = slot.delta.payloadBytes();
 
+        if (options_.keep_step_log) {
+            std::lock_guard lock(log_mutex_);
+            log_.push_back(info);
+        }
         back_ = middle_.exchange(back_ | kFresh, std::memory_order_acq_rel) & kIndex;
         published_ = true;
         done = frame;

@@ -26,7 +26,7 @@ namespace terrain::roam {
 class DeltaCollector {
   public:
     /// Past this many ranges a tile's pending vertices are "all of them".
-    static constexpr std::size_t kMaxRanges = 256;
+    static constexpr std::size_t kMaxRanges = TileVertexArrays::kMaxRanges;
 
     /// The reader took the last delta written: what it covered is no longer pending. Call before
     /// the next collect().

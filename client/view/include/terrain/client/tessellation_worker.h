@@ -35,6 +35,9 @@ struct TessellationWorkerOptions {
     TerrainViewOptions view;
     /// Each post() waits for its step (the synchronous path's steps, on the worker).
     bool lockstep = false;
+    /// Keeps every step's WorkerStep for stepLog() (benchmarks: the deltas the frame thread
+    /// never took count too).
+    bool keep_step_log = false;
 };
 
 /// What the worker did for the delta the frame thread holds.
@@ -42,6 +45,7 @@ struct WorkerStep {
     std::uint64_t step = 0;  ///< the worker's steps so far (one per tessellation)
     std::uint64_t frame = 0; ///< the post whose camera it tessellated (1 = the first)
     std::uint64_t seq = 0;   ///< the replica seq its world had reached
+    std::uint64_t ops = 0;   ///< ops the step applied (their craters are in its mesh)
     std::uint64_t world_hash = 0;
     double threshold = 0.0; ///< the tessellator's threshold after the step (pixels)
     roam::FrameStats stats;
@@ -80,6 +84,8 @@ class TessellationWorker {
     std::uint64_t posted() const { return posted_; }
     /// Frames the drawn mesh is behind the newest camera: posted() - taken().frame.
     std::uint64_t lag() const { return posted_ - taken_.frame; }
+    /// Every step so far, taken or not (with keep_step_log; empty otherwise).
+    std::vector<WorkerStep> stepLog() const;
 
   private:
     struct Slot {
@@ -116,6 +122,9 @@ class TessellationWorker {
     std::atomic<std::uint32_t> middle_{2};
     std::uint32_t back_ = 0;  ///< the worker's
     std::uint32_t front_ = 1; ///< the frame thread's
+
+    mutable std::mutex log_mutex_;
+    std::vector<WorkerStep> log_;
 
     // the frame thread's
     std::uint64_t posted_ = 0;
