@@ -86,6 +86,9 @@ int main(int argc, char** argv) {
         a->add_option("--altitude", config.script.altitude_metres, "above the focus, metres")
             ->check(CLI::PositiveNumber);
         a->add_flag("--render", config.render, "render every frame offscreen");
+        a->add_flag(
+            "!--sync-tessellation", config.async_tessellation,
+            "tessellate on the frame thread (default: on a worker thread; the frame never waits)");
         a->add_option("--gl", backend_name, "offscreen backend: osmesa | egl")
             ->check(CLI::IsMember({"osmesa", "egl"}));
         a->add_flag(

@@ -113,6 +113,7 @@ struct Settings {
     std::int32_t max_blocks = roam::TessellatorOptions{}.max_detail_blocks;
     std::int64_t work_budget = roam::TessellatorOptions{}.work_budget;
     std::int64_t stale_budget = roam::TessellatorOptions{}.stale_block_budget;
+    std::int64_t upload_budget = roam::TessellatorOptions{}.upload_budget_bytes;
     client::OpPacing pacing{.ops_per_frame = client::kDefaultOpsPerFrame};
     int width = 1280;
     int height = 720;
@@ -121,6 +122,7 @@ struct Settings {
     int min_frames = 0;
     bool render = false;
     bool async = false;
+    bool lockstep = false;
     double fps = 60.0;
     double frame_target_ms = 0.0;
     ProceduralMapOptions map;
@@ -151,6 +153,11 @@ std::optional<int> parseSettings(int argc, char** argv, Settings& s) {
     app.add_option(
            "--stale-budget", s.stale_budget, "stale detail blocks re-bounded per frame (0: all)")
         ->check(CLI::NonNegativeNumber);
+    app.add_option(
+           "--upload-budget", s.upload_budget,
+           "bytes of mesh changes a frame may make a renderer upload (0: no limit); it binds only "
+           "where something takes the changes: --render, --async")
+        ->check(CLI::NonNegativeNumber);
     app.add_option("--width", s.width, "viewport width")->check(CLI::Range(64, 8192));
     app.add_option("--height", s.height, "viewport height")->check(CLI::Range(64, 8192));
     app.add_option("--flight", s.flight, "hover | cross")->check(CLI::IsMember({"hover", "cross"}));
@@ -163,6 +170,10 @@ std::optional<int> parseSettings(int argc, char** argv, Settings& s) {
         ->check(CLI::NonNegativeNumber);
     app.add_flag("--render", s.render, "draw every frame offscreen (OSMesa)");
     app.add_flag("--async", s.async, "tessellate on a worker thread; the frame loop runs at --fps");
+    app.add_flag(
+        "--lockstep", s.lockstep,
+        "--async: each frame waits for its step (the synchronous path's steps on the worker: "
+        "its cost per crater, comparable; --fps ignored)");
     app.add_option("--fps", s.fps, "--async: frames a second the frame loop keeps (real time)")
         ->check(CLI::Range(1.0, 1000.0));
     app.add_option(
@@ -436,7 +447,10 @@ AsyncTally flyAsync(
             t.render_ms.push_back(draw_ms);
         }
         last_frame_ms = total + draw_ms;
-        std::this_thread::sleep_until(deadline);
+        if (s.lockstep)
+            deadline = bench::Clock::now(); // no pacing: every frame waited for its step
+        else
+            std::this_thread::sleep_until(deadline);
     }
     // the worker's view of the same world: its last step has every op
     for (int k = 0; k < 1000 && worker.taken().seq < seq; ++k) {
@@ -456,7 +470,43 @@ AsyncTally flyAsync(
 Json asyncReportOf(const Settings& s, const Battle& battle, const AsyncTally& t) {
     std::vector<double> step_ms, step_update, step_apply, step_collect, crater_steps, delta_kib;
     std::vector<double> per_op_ms;
+    // the cost model, over the steps that applied ops (craters), no rebuild: each part's time
+    // per unit of its work (with --lockstep, the synchronous path's steps: mostly one op each)
+    std::vector<double> c_apply, c_absorb, c_bounds, c_policy, c_finish, c_pool, c_collect;
+    std::vector<double> per_block_us, per_split_merge_us, per_evaluation_us, per_collect_kib_us;
+    std::vector<double> c_splits, c_merges, c_evaluations, c_blocks, c_kib;
     for (const client::WorkerStep& w : t.steps) {
+        if (w.ops >= 1 && !w.stats.rebuilt) {
+            const auto phase = [&](roam::UpdatePhase p) {
+                return w.phase_ms[static_cast<std::size_t>(p)];
+            };
+            c_apply.push_back(w.apply_ms);
+            c_absorb.push_back(w.absorb_ms);
+            c_bounds.push_back(phase(roam::UpdatePhase::kStaleBounds));
+            c_policy.push_back(phase(roam::UpdatePhase::kSplitMerge));
+            c_finish.push_back(phase(roam::UpdatePhase::kFinishFrame));
+            c_pool.push_back(phase(roam::UpdatePhase::kPoolUpkeep));
+            c_collect.push_back(w.collect_ms);
+            const double sm = static_cast<double>(w.stats.splits + w.stats.merges);
+            c_splits.push_back(static_cast<double>(w.stats.splits));
+            c_merges.push_back(static_cast<double>(w.stats.merges));
+            c_evaluations.push_back(static_cast<double>(w.stats.evaluations));
+            c_blocks.push_back(static_cast<double>(w.stats.stale_blocks_bounded));
+            c_kib.push_back(static_cast<double>(w.delta_bytes) / 1024.0);
+            if (w.stats.stale_blocks_bounded > 0)
+                per_block_us.push_back(
+                    1000.0 * phase(roam::UpdatePhase::kStaleBounds) /
+                    static_cast<double>(w.stats.stale_blocks_bounded));
+            if (sm > 0)
+                per_split_merge_us.push_back(1000.0 * phase(roam::UpdatePhase::kSplitMerge) / sm);
+            if (w.stats.evaluations > 0)
+                per_evaluation_us.push_back(
+                    1000.0 * phase(roam::UpdatePhase::kSplitMerge) /
+                    static_cast<double>(w.stats.evaluations));
+            if (w.delta_bytes > 0)
+                per_collect_kib_us.push_back(
+                    1000.0 * w.collect_ms / (static_cast<double>(w.delta_bytes) / 1024.0));
+        }
         const double total = w.apply_ms + w.update_ms + w.collect_ms;
         step_ms.push_back(total);
         step_update.push_back(w.update_ms);
@@ -474,7 +524,7 @@ Json asyncReportOf(const Settings& s, const Battle& battle, const AsyncTally& t)
     const bench::Summary error = bench::summarize(t.error_bound);
     Json report{
         {"benchmark", "client_battle_bench"},
-        {"mode", "async"},
+        {"mode", s.lockstep ? "async-lockstep" : "async"},
         {"date", bench::isoNow()},
         {"cpu", bench::cpuModel()},
         {"cores", std::thread::hardware_concurrency()},
@@ -486,6 +536,7 @@ Json asyncReportOf(const Settings& s, const Battle& battle, const AsyncTally& t)
         {"shots", s.shots},
         {"ops", battle.sent.size()},
         {"fps", s.fps},
+        {"upload_budget_bytes", s.upload_budget},
         {"frames", t.frame_thread.size()},
         {"render", s.render},
         {"hashes_agree", t.hashes_agree},
@@ -511,6 +562,31 @@ Json asyncReportOf(const Settings& s, const Battle& battle, const AsyncTally& t)
              {"one_crater_step_ms", summaryJson(crater)},
              {"per_op_ms", summaryJson(bench::summarize(per_op_ms))},
              {"delta_kib", summaryJson(bench::summarize(delta_kib))}}},
+        {"crater_step_cost_model",
+         Json{
+             {"steps", c_apply.size()},
+             {"ms",
+              Json{
+                  {"apply", summaryJson(bench::summarize(c_apply))},
+                  {"absorb", summaryJson(bench::summarize(c_absorb))},
+                  {"stale_bounds", summaryJson(bench::summarize(c_bounds))},
+                  {"split_merge", summaryJson(bench::summarize(c_policy))},
+                  {"finish_frame", summaryJson(bench::summarize(c_finish))},
+                  {"pool_upkeep", summaryJson(bench::summarize(c_pool))},
+                  {"collect", summaryJson(bench::summarize(c_collect))}}},
+             {"work",
+              Json{
+                  {"splits", summaryJson(bench::summarize(c_splits))},
+                  {"merges", summaryJson(bench::summarize(c_merges))},
+                  {"evaluations", summaryJson(bench::summarize(c_evaluations))},
+                  {"blocks_rebounded", summaryJson(bench::summarize(c_blocks))},
+                  {"delta_kib", summaryJson(bench::summarize(c_kib))}}},
+             {"us_per",
+              Json{
+                  {"block_rebound", summaryJson(bench::summarize(per_block_us))},
+                  {"split_or_merge", summaryJson(bench::summarize(per_split_merge_us))},
+                  {"evaluation", summaryJson(bench::summarize(per_evaluation_us))},
+                  {"delta_kib", summaryJson(bench::summarize(per_collect_kib_us))}}}}},
         {"ops_waited_frames_max", t.max_delay_frames},
         {"goals", Json{
                       {"frame_thread_p99_le_2ms", frame.p99 <= 2.0},
@@ -520,10 +596,11 @@ Json asyncReportOf(const Settings& s, const Battle& battle, const AsyncTally& t)
                       {"worker_crater_p50_le_3ms", crater.p50 <= 3.0},
                       {"worker_crater_p99_le_8ms", crater.p99 <= 8.0}}}};
     std::printf(
-        "client_battle_bench --async: %zu ops, %zu frames at %.0f fps, %s flight, tau %.2g px, "
-        "%d x %d%s\n",
-        battle.sent.size(), t.frame_thread.size(), s.fps, s.flight.c_str(), s.tau, s.width,
-        s.height, s.render ? ", rendered (OSMesa)" : "");
+        "client_battle_bench --async%s: %zu ops, %zu frames at %.0f fps, %s flight, tau %.2g "
+        "px, %d x %d%s\n",
+        s.lockstep ? " --lockstep" : "", battle.sent.size(), t.frame_thread.size(),
+        s.lockstep ? 0.0 : s.fps, s.flight.c_str(), s.tau, s.width, s.height,
+        s.render ? ", rendered (OSMesa)" : "");
     std::printf(
         "  frame thread ms: p50 %.3f p99 %.3f max %.3f (burst frames p99 %.3f; apply p99 %.3f, "
         "post p99 %.3f, take p99 %.3f)\n",
@@ -539,6 +616,19 @@ Json asyncReportOf(const Settings& s, const Battle& battle, const AsyncTally& t)
         "triangles p50 %.0f; hashes %s\n",
         lag.p50, lag.p99, lag.max, error.p50, error.p99, bench::summarize(t.triangles).p50,
         t.hashes_agree ? "agree" : "DIFFER");
+    std::printf(
+        "  steps with craters (%zu), p50 ms: apply %.2f, absorb %.2f, stale bounds %.2f (%.0f "
+        "blocks, %.1f us each), split/merge %.2f (%.0f splits, %.0f merges, %.0f evaluations; "
+        "%.2f us per split or merge), finish %.2f, pool %.2f, collect %.2f (%.0f KiB, %.1f us "
+        "per KiB)\n",
+        c_apply.size(), bench::summarize(c_apply).p50, bench::summarize(c_absorb).p50,
+        bench::summarize(c_bounds).p50, bench::summarize(c_blocks).p50,
+        bench::summarize(per_block_us).p50, bench::summarize(c_policy).p50,
+        bench::summarize(c_splits).p50, bench::summarize(c_merges).p50,
+        bench::summarize(c_evaluations).p50, bench::summarize(per_split_merge_us).p50,
+        bench::summarize(c_finish).p50, bench::summarize(c_pool).p50,
+        bench::summarize(c_collect).p50, bench::summarize(c_kib).p50,
+        bench::summarize(per_collect_kib_us).p50);
     if (!t.render_ms.empty())
         std::printf(
             "  render (sync + draw) ms: p50 %.1f p99 %.1f\n", bench::summarize(t.render_ms).p50,
@@ -602,6 +692,7 @@ Json reportOf(
         {"frame_ms", summaryJson(frames)},
         {"quiet_frame_ms", summaryJson(quiet)},
         {"work_budget", s.work_budget},
+        {"upload_budget_bytes", s.upload_budget},
         {"triangles", summaryJson(bench::summarize(t.triangles))},
         {"error_bound_pixels", summaryJson(bench::summarize(t.error_bound))},
         {"threshold_moves", t.threshold_moves},
@@ -689,6 +780,7 @@ int main(int argc, char** argv) {
     to.max_detail_blocks = s.max_blocks;
     to.work_budget = s.work_budget;
     to.stale_block_budget = s.stale_budget;
+    to.upload_budget_bytes = s.upload_budget;
     if (s.async) {
         Result<Renderer> renderer = makeRenderer(s);
         if (!renderer) {
@@ -700,6 +792,7 @@ int main(int argc, char** argv) {
         wo.view.budget.target_ms = s.frame_target_ms;
         wo.view.budget.max_triangles = s.max_triangles;
         wo.keep_step_log = true;
+        wo.lockstep = s.lockstep;
         client::TessellationWorker worker(replica, wo);
         const AsyncTally t = flyAsync(s, battle, replica, worker, *renderer);
         const Json json = asyncReportOf(s, battle, t);

@@ -93,7 +93,12 @@ TEST(TessellationWorker, InLockstepItDrawsWhatTheSynchronousPathDrawsFrameByFram
     o.lockstep = true;
     TessellationWorker worker(frame_replica, o);
     TerrainView sync(sync_replica, o.view);
+    // the synchronous path's renderer takes the tessellator's changes every frame, as the
+    // worker's collector does: what a frame may upload (the upload budget) is counted the same
+    roam::DeltaCollector renderer;
+    roam::MeshDelta taken;
     roam::DrawnMesh mesh;
+    int upload_bound = 0;
     for (int f = 0; f < 70; ++f) {
         const double x = 30.0 + (f % 35) * 5.0;
         const double y = 40.0 + (f % 35) * 2.5;
@@ -122,6 +127,8 @@ TEST(TessellationWorker, InLockstepItDrawsWhatTheSynchronousPathDrawsFrameByFram
         const roam::Camera camera = lowOver(server.world, x, y, yaw);
         sync.absorb();
         sync.update(camera);
+        renderer.collect(sync.tessellator(), sync_replica.terrain(), taken);
+        renderer.delivered();
         worker.post(camera);
         ASSERT_TRUE(worker.take(mesh)) << "lockstep: a delta for every frame";
         EXPECT_EQ(worker.lag(), 0u);
@@ -129,11 +136,14 @@ TEST(TessellationWorker, InLockstepItDrawsWhatTheSynchronousPathDrawsFrameByFram
         EXPECT_EQ(worker.taken().seq, sync_replica.seq());
         EXPECT_EQ(worker.taken().world_hash, sync_replica.worldHash());
         EXPECT_EQ(worker.taken().stats.triangles, sync.lastStats().triangles);
+        upload_bound += worker.taken().stats.upload_budget_bound ? 1 : 0;
         EXPECT_EQ(worker.taken().threshold, sync.tessellator().threshold());
         ASSERT_EQ(difference(mesh, sync.tessellator(), sync_replica.terrain(), f % 3 == 0), "")
             << "frame " << f;
     }
     EXPECT_GT(sync_replica.stats().ops_applied, 80u);
+    // the upload budget bound in some frames: the two paths counted uploads alike
+    EXPECT_GT(upload_bound, 0);
 }
 
 /// Every drawn triangle's corners (lattice x, y), per tile, from the copy's lists.

@@ -2,6 +2,7 @@
 #include <terrain/client/connection.h>
 #include <terrain/client/replica.h>
 #include <terrain/client/terrain_view.h>
+#include <terrain/client/tessellation_worker.h>
 #include <terrain/render/gpu_timer.h>
 #include <terrain/render/sky_holes.h>
 #include <terrain/render/terrain_renderer.h>
@@ -75,6 +76,7 @@ struct FrameSamples {
     std::vector<double> copies;
     std::vector<double> caps;
     std::vector<double> error_bounds;
+    std::vector<double> lags;
 };
 
 /// One bot's run, phase by phase: join, open the renderer, fly the script's frames (a crater
@@ -103,7 +105,7 @@ class BotRun {
         // settling), so before.png and after.png compare
         const roam::Camera first = script_->camera(0, replica_.terrain());
         const bool settled = settle();
-        frame(first);
+        frame(first, true);
         connection_->applyAllArrived(); // the report speaks for every op received
         if (gpu_.terrain && !config_.png_dir.empty())
             writePng("after.png");
@@ -165,7 +167,15 @@ class BotRun {
                               : config_.render        ? kDefaultRenderFrameMs
                                                       : 0.0;
         vo.budget.max_triangles = config_.max_triangles;
-        view_ = std::make_unique<client::TerrainView>(replica_, vo);
+        if (!config_.async_tessellation) {
+            view_ = std::make_unique<client::TerrainView>(replica_, vo);
+            return;
+        }
+        client::TessellationWorkerOptions wo;
+        wo.view = vo;
+        worker_ = std::make_unique<client::TessellationWorker>(replica_, wo);
+        // the first frame shows the world joined (a game's loading screen ends here)
+        worker_->finish(script_->camera(0, replica_.terrain()), mesh_);
     }
 
     Status openRenderer() {
@@ -204,25 +214,47 @@ class BotRun {
             report_.error = s.error().message;
     }
 
-    /// What arrived this frame (the connection's share) to the replica and on to the view.
-    void absorb() { view_->absorb(); }
+    /// What arrived this frame (the connection's share) to the replica and on to the view (a
+    /// worker takes it with the next frame's camera).
+    void absorb() {
+        if (view_)
+            view_->absorb();
+    }
 
     /// A frame: take what arrived, tessellate, draw and present (when rendering), steer the
     /// triangle cap on the frame's time.
-    void frame(const roam::Camera& camera) {
-        const roam::Tessellator& tess = view_->tessellator();
+    void frame(const roam::Camera& camera, bool final = false) {
         const Clock::time_point t0 = Clock::now();
         io_.poll();
         io_.restart();
         connection_->applyArrived(); // this frame's share of what arrived
         absorb();
         const Clock::time_point t1 = Clock::now();
-        samples_.caps.push_back(static_cast<double>(tess.options().max_triangles));
-        const roam::FrameStats& fs = view_->update(camera);
-        samples_.tessellate_ms.push_back(msSince(t1));
-        samples_.error_bounds.push_back(fs.error_bound_pixels);
-        samples_.triangles.push_back(static_cast<double>(fs.triangles));
-        samples_.visible.push_back(static_cast<double>(fs.visible_triangles));
+        if (worker_) {
+            // the frame posts its camera and takes the newest tiles the worker finished; the
+            // last frame waits for everything (the after picture)
+            if (final)
+                worker_->finish(camera, mesh_);
+            else {
+                worker_->post(camera, steer_ms_);
+                worker_->take(mesh_);
+            }
+            samples_.tessellate_ms.push_back(msSince(t1));
+            const client::WorkerStep& step = worker_->taken();
+            samples_.caps.push_back(static_cast<double>(step.max_triangles));
+            samples_.error_bounds.push_back(step.stats.error_bound_pixels);
+            samples_.triangles.push_back(static_cast<double>(step.stats.triangles));
+            samples_.visible.push_back(static_cast<double>(step.stats.visible_triangles));
+            samples_.lags.push_back(static_cast<double>(worker_->lag()));
+        } else {
+            const roam::Tessellator& tess = view_->tessellator();
+            samples_.caps.push_back(static_cast<double>(tess.options().max_triangles));
+            const roam::FrameStats& fs = view_->update(camera);
+            samples_.tessellate_ms.push_back(msSince(t1));
+            samples_.error_bounds.push_back(fs.error_bound_pixels);
+            samples_.triangles.push_back(static_cast<double>(fs.triangles));
+            samples_.visible.push_back(static_cast<double>(fs.visible_triangles));
+        }
         if (gpu_.terrain)
             draw(camera);
         samples_.frame_ms.push_back(msSince(t0));
@@ -230,16 +262,24 @@ class BotRun {
         // larger of the two
         const double gpu_frame =
             gpu_.timer && gpu_.timer->latestMs() ? *gpu_.timer->latestMs() : 0.0;
-        view_->steer(std::max(samples_.frame_ms.back(), gpu_frame));
+        steer_ms_ = std::max(samples_.frame_ms.back(), gpu_frame);
+        if (view_)
+            view_->steer(steer_ms_);
     }
 
     void draw(const roam::Camera& camera) {
-        roam::Tessellator& tess = view_->tessellator(); // the renderer takes its changes
         const Clock::time_point t2 = Clock::now();
         gpu_.timer->begin();
-        const render::UploadStats up = gpu_.terrain->sync(tess, replica_.terrain());
+        // the renderer takes the changes of what it draws: the worker's tiles, or the
+        // tessellator's
+        const render::UploadStats up =
+            worker_ ? gpu_.terrain->sync(mesh_)
+                    : gpu_.terrain->sync(view_->tessellator(), replica_.terrain());
         const Clock::time_point t3 = Clock::now();
-        gpu_.terrain->draw(tess, camera, render::RenderOptions{});
+        if (worker_)
+            gpu_.terrain->draw(mesh_, camera, render::RenderOptions{});
+        else
+            gpu_.terrain->draw(view_->tessellator(), camera, render::RenderOptions{});
         gpu_.timer->end();
         const Clock::time_point t4 = Clock::now();
         gpu_.context->present();
@@ -341,6 +381,8 @@ class BotRun {
         r.genesis_deltas = connection_->stats().genesis_deltas;
         r.snapshot_bytes = connection_->stats().snapshot_bytes;
         r.tessellate_ms = Spread::of(samples_.tessellate_ms);
+        r.async_tessellation = worker_ != nullptr;
+        r.lag_frames = Spread::of(samples_.lags);
         r.render_ms = Spread::of(samples_.render_ms);
         r.sync_ms = Spread::of(samples_.sync_ms);
         r.draw_ms = Spread::of(samples_.draw_ms);
@@ -396,7 +438,10 @@ class BotRun {
     int answers_pending_ = 0;
     Clock::time_point last_op_{};
     std::optional<BotScript> script_;
-    std::unique_ptr<client::TerrainView> view_;
+    std::unique_ptr<client::TerrainView> view_; ///< the synchronous path
+    std::unique_ptr<client::TessellationWorker> worker_;
+    roam::DrawnMesh mesh_;  ///< the worker's tiles, as the frame draws them
+    double steer_ms_ = 0.0; ///< the last frame's time, for the triangle budget
     Renderer gpu_;
     std::array<double, render::GpuTimer::kQueries> gpu_done_{};
     FrameSamples samples_;

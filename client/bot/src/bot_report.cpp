@@ -64,6 +64,8 @@ std::string toJson(const BotReport& r) {
           {"refused", r.craters_refused},
           {"missed", r.craters_missed}}},
         {"tessellate_ms", spreadJson(r.tessellate_ms)},
+        {"async_tessellation", r.async_tessellation},
+        {"lag_frames", spreadJson(r.lag_frames)},
         {"render_ms", spreadJson(r.render_ms)},
         {"sync_ms", spreadJson(r.sync_ms)},
         {"draw_ms", spreadJson(r.draw_ms)},
@@ -139,6 +141,10 @@ Result<BotReport> readReport(const std::filesystem::path& path) {
         r.craters_refused = c.at("refused").get<int>();
         r.craters_missed = c.at("missed").get<int>();
         r.tessellate_ms = spreadFrom(j.at("tessellate_ms"));
+        // added with the tessellation worker (2026-12-06); older reports lack them
+        r.async_tessellation = j.value("async_tessellation", false);
+        if (j.contains("lag_frames"))
+            r.lag_frames = spreadFrom(j.at("lag_frames"));
         r.render_ms = spreadFrom(j.at("render_ms"));
         r.frame_ms = spreadFrom(j.at("frame_ms"));
         r.triangles = spreadFrom(j.at("triangles"));

@@ -169,7 +169,7 @@ SplitMerge::frame(const ViewMetric& m, double travelled, FrameStats& stats, Spli
         for (const Action& a : merges_) {
             if ((space_->state(a.id) & kMergeCandidate) == 0 || !space_->active(a.id))
                 continue;
-            if (mesh.budgetSpent(stats)) {
+            if (mesh.mergeBudgetSpent(stats)) {
                 deferred_.push_back(a.id);
                 continue;
             }

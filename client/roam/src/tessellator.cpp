@@ -49,7 +49,10 @@ struct Tessellator::PolicyMesh final : SplitMergeMesh {
         if (!t_.hasActiveChild(d))
             t_.deactivate(d, id, stats);
     }
-    bool budgetSpent(FrameStats& stats) const override { return t_.budgetSpent(stats); }
+    bool budgetSpent(FrameStats& stats) const override { return t_.budgetSpent(stats, 1.0); }
+    bool mergeBudgetSpent(FrameStats& stats) const override {
+        return t_.budgetSpent(stats, kMergeUploadShare);
+    }
 
   private:
     Tessellator& t_;
@@ -161,10 +164,12 @@ void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
     policy_.settle(m, stats, mesh);
 }
 
-bool Tessellator::budgetSpent(FrameStats& stats) const {
+bool Tessellator::budgetSpent(FrameStats& stats, double upload_share) const {
     if (workSpent(stats) >= options_.work_budget)
         return true;
-    if (options_.upload_budget_bytes > 0 && uploadSpent() >= options_.upload_budget_bytes) {
+    if (options_.upload_budget_bytes > 0 &&
+        static_cast<double>(uploadSpent()) >=
+            upload_share * static_cast<double>(options_.upload_budget_bytes)) {
         stats.upload_budget_bound = true;
         return true;
     }
@@ -198,13 +203,16 @@ FrameStats Tessellator::update(const Camera& camera) {
     const std::int64_t budget = rebuilding || options_.stale_block_budget <= 0
                                     ? std::numeric_limits<std::int64_t>::max()
                                     : options_.stale_block_budget;
+    enter(UpdatePhase::kStaleBounds);
     stats.stale_blocks_bounded = drainStale(budget);
     if (rebuilding) {
+        enter(UpdatePhase::kRebuild);
         rebuildTopDown(m, stats);
         needs_rebuild_ = false;
         initialized_ = true;
         policy_.restartSweep(camera);
     } else {
+        enter(UpdatePhase::kSplitMerge);
         PolicyMesh mesh(*this);
         stats.error_bound_pixels =
             policy_.frame(m, glm::length(camera.eye - last_eye_), stats, mesh);
@@ -218,7 +226,9 @@ FrameStats Tessellator::update(const Camera& camera) {
     last_eye_ = camera.eye;
     last_error_scale_ = m.errorScale();
     last_near_ = camera.near_plane;
+    enter(UpdatePhase::kFinishFrame);
     finishFrame(m, stats);
+    enter(UpdatePhase::kPoolUpkeep);
     sweepIdleBlocks();
     trimGrains();
     stats.refused_by_pool = pool_refusals_ - pool_refusals;
@@ -229,6 +239,7 @@ FrameStats Tessellator::update(const Camera& camera) {
     stats.upload_bytes = uploadSpent();
     stats.blocks_materialised = materialised_ - materialised;
     stats.blocks_evicted = evicted_ - evicted;
+    enter(UpdatePhase::kDone);
     return stats;
 }
 

@@ -14,12 +14,36 @@ double msSince(std::chrono::steady_clock::time_point start) {
 
 } // namespace
 
+/// Times update()'s passes into the step being made (the tessellator reads no clock).
+class TessellationWorker::PhaseClock final : public roam::UpdatePhaseObserver {
+  public:
+    void begin(WorkerStep& step) {
+        step_ = &step;
+        current_ = -1;
+    }
+    void enter(roam::UpdatePhase phase) override {
+        const auto now = std::chrono::steady_clock::now();
+        if (current_ >= 0 && step_ != nullptr)
+            step_->phase_ms[static_cast<std::size_t>(current_)] +=
+                std::chrono::duration<double, std::milli>(now - started_).count();
+        current_ = phase == roam::UpdatePhase::kDone ? -1 : static_cast<int>(phase);
+        started_ = now;
+    }
+
+  private:
+    WorkerStep* step_ = nullptr;
+    int current_ = -1;
+    std::chrono::steady_clock::time_point started_{};
+};
+
 TessellationWorker::TessellationWorker(Replica& replica, const TessellationWorkerOptions& options)
     : options_(options), replica_(&replica) {
     // the worker's world: a copy of the replica's now, then the same changes as it
     world_.loadSnapshot(DecodedSnapshot{Terrain(replica.terrain()), replica.seq()});
     replica.recordChanges(true);
     view_.emplace(world_, options.view);
+    phase_clock_ = std::make_unique<PhaseClock>();
+    view_->tessellator().setPhaseObserver(phase_clock_.get());
     thread_ = std::thread([this] { run(); });
 }
 
@@ -48,10 +72,19 @@ void TessellationWorker::post(const roam::Camera& camera, double frame_ms) {
         in_frame_ms_ = frame_ms;
     }
     in_cv_.notify_one();
-    if (options_.lockstep) {
-        std::unique_lock lock(done_mutex_);
-        done_cv_.wait(lock, [&] { return done_frame_ >= frame; });
-    }
+    if (options_.lockstep)
+        waitFor(frame);
+}
+
+void TessellationWorker::waitFor(std::uint64_t frame) {
+    std::unique_lock lock(done_mutex_);
+    done_cv_.wait(lock, [&] { return done_frame_ >= frame; });
+}
+
+void TessellationWorker::finish(const roam::Camera& camera, roam::DrawnMesh& mesh) {
+    post(camera);
+    waitFor(posted_);
+    take(mesh);
 }
 
 void TessellationWorker::setTau(double tau_pixels) {
@@ -114,6 +147,8 @@ void TessellationWorker::run() {
             info.ops += change.kind == ReplicaChange::Kind::kOp ? 1 : 0;
         }
         changes.clear();
+        info.apply_ms = msSince(start);
+        start = std::chrono::steady_clock::now();
         view_->absorb();
         if (tau)
             view_->tessellator().setTau(*tau);
@@ -121,9 +156,10 @@ void TessellationWorker::run() {
             view_->tessellator().setMaxTriangles(*max_triangles);
         if (frame_ms > 0.0)
             view_->steer(frame_ms);
-        info.apply_ms = msSince(start);
+        info.absorb_ms = msSince(start);
 
         start = std::chrono::steady_clock::now();
+        phase_clock_->begin(info);
         info.stats = view_->update(camera);
         info.update_ms = msSince(start);
 
@@ -138,6 +174,7 @@ void TessellationWorker::run() {
         info.seq = world_.seq();
         info.world_hash = world_.worldHash();
         info.threshold = view_->tessellator().threshold();
+        info.max_triangles = view_->tessellator().options().max_triangles;
         info.delta_bytes = slot.delta.payloadBytes();
 
         if (options_.keep_step_log) {
@@ -147,13 +184,11 @@ void TessellationWorker::run() {
         back_ = middle_.exchange(back_ | kFresh, std::memory_order_acq_rel) & kIndex;
         published_ = true;
         done = frame;
-        if (options_.lockstep) {
-            {
-                std::lock_guard lock(done_mutex_);
-                done_frame_ = frame;
-            }
-            done_cv_.notify_all();
+        {
+            std::lock_guard lock(done_mutex_);
+            done_frame_ = frame;
         }
+        done_cv_.notify_all();
     }
 }
 

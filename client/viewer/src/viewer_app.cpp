@@ -6,6 +6,7 @@
 #include <terrain/client/connection.h>
 #include <terrain/client/replica.h>
 #include <terrain/client/terrain_view.h>
+#include <terrain/client/tessellation_worker.h>
 #include <terrain/procedural_map.h>
 #include <terrain/render/glfw_window.h>
 #include <terrain/render/gpu_timer.h>
@@ -161,9 +162,19 @@ class Viewer {
     client::Replica replica_;
     asio::io_context io_;
     std::shared_ptr<client::Connection> connection_;
-    std::unique_ptr<client::TerrainView> view_; ///< replica -> tessellator, the triangle budget
-    /// The last frame's tessellation; none before the join (a report of a failed join).
-    roam::FrameStats lastStats() const { return view_ ? view_->lastStats() : roam::FrameStats{}; }
+    /// The synchronous path (--sync-tessellation, or geomorphing): replica -> tessellator, the
+    /// triangle budget, on the frame thread.
+    std::unique_ptr<client::TerrainView> view_;
+    /// The default: the tessellation on a worker thread; the frame draws its newest tiles.
+    std::unique_ptr<client::TessellationWorker> worker_;
+    roam::DrawnMesh mesh_;
+    double steer_ms_ = 0.0;
+    /// The drawn mesh's tessellation; none before the join (a report of a failed join).
+    roam::FrameStats lastStats() const {
+        if (worker_)
+            return worker_->taken().stats;
+        return view_ ? view_->lastStats() : roam::FrameStats{};
+    }
     std::optional<FlyCamera> camera_;
 
     OverlayControls controls_;
@@ -343,9 +354,20 @@ Status Viewer::join() {
     vo.tessellation.tau_pixels = refineTau(options_.tau_pixels);
     vo.tessellation.max_triangles = options_.max_triangles;
     vo.budget = {.target_ms = options_.frame_ms, .max_triangles = options_.max_triangles};
-    view_ = std::make_unique<client::TerrainView>(replica_, vo);
     applied_tau_ = options_.tau_pixels;
     camera_.emplace(startCamera(replica_.terrain()));
+    // geomorphing slides each vertex for the frame's camera from the tessellator's bounds:
+    // only the synchronous path has them on the frame thread
+    if (options_.async_tessellation && options_.geomorph <= 0.0) {
+        client::TessellationWorkerOptions wo;
+        wo.view = vo;
+        worker_ = std::make_unique<client::TessellationWorker>(replica_, wo);
+        const int w = std::max(window_->width(), 1);
+        const int h = std::max(window_->height(), 1);
+        worker_->finish(camera_->camera(w, h), mesh_); // the first frame shows the world
+    } else {
+        view_ = std::make_unique<client::TerrainView>(replica_, vo);
+    }
     controls_.speed = static_cast<float>(camera_->speed);
     return Ok{};
 }
@@ -384,7 +406,8 @@ Status Viewer::loop() {
 
         // the network first, so this frame shows every op that has arrived
         pollNetwork();
-        view_->absorb();
+        if (view_)
+            view_->absorb(); // (a worker takes the replica's changes with the camera)
         const Terrain& terrain = replica_.terrain();
 
         camera_->speed = controls_.speed;
@@ -399,7 +422,10 @@ Status Viewer::loop() {
         if (static_cast<double>(controls_.tau_pixels) != applied_tau_ &&
             controls_.tau_pixels > 0.0f) {
             applied_tau_ = static_cast<double>(controls_.tau_pixels);
-            view_->tessellator().setTau(refineTau(applied_tau_));
+            if (worker_)
+                worker_->setTau(refineTau(applied_tau_));
+            else
+                view_->tessellator().setTau(refineTau(applied_tau_));
         }
 
         const int fb_w = window_->width();
@@ -413,15 +439,26 @@ Status Viewer::loop() {
         }
         const roam::Camera camera = camera_->camera(fb_w, fb_h);
         const Clock::time_point t0 = Clock::now();
-        view_->update(camera);
+        if (worker_) {
+            // the frame's camera to the worker, its newest tiles to the frame: no wait
+            worker_->post(camera, steer_ms_);
+            worker_->take(mesh_);
+        } else {
+            view_->update(camera);
+        }
         const Clock::time_point t1 = Clock::now();
         gpu_timer_->begin();
-        roam::Tessellator& tess = view_->tessellator();
-        last_upload_ = renderer_->sync(tess, terrain);
-        const render::UploadStats morphed = renderer_->morph(tess, camera);
-        last_upload_.vertex_bytes += morphed.vertex_bytes;
         render_options.mode = drawModeOf(controls_.draw_mode);
-        renderer_->draw(tess, camera, render_options);
+        if (worker_) {
+            last_upload_ = renderer_->sync(mesh_);
+            renderer_->draw(mesh_, camera, render_options);
+        } else {
+            roam::Tessellator& tess = view_->tessellator();
+            last_upload_ = renderer_->sync(tess, terrain);
+            const render::UploadStats morphed = renderer_->morph(tess, camera);
+            last_upload_.vertex_bytes += morphed.vertex_bytes;
+            renderer_->draw(tess, camera, render_options);
+        }
         gpu_timer_->end();
         // the CPU's part only: the GPU's comes back from its timer a few frames later, and
         // waiting for it here (glFinish) would stall every frame
@@ -439,7 +476,9 @@ Status Viewer::loop() {
         }
         // the budget steers on the slower of the two where the GPU's time is known
         const double gpu_frame = gpu_timer_->latestMs().value_or(0.0);
-        view_->steer(std::max(tess_ms + draw_ms, gpu_frame));
+        steer_ms_ = std::max(tess_ms + draw_ms, gpu_frame);
+        if (view_)
+            view_->steer(steer_ms_);
         if (keep_all_) {
             all_tess_ms_.push_back(tess_ms);
             all_draw_ms_.push_back(draw_ms);

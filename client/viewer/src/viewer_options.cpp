@@ -29,6 +29,9 @@ void addViewerOptions(CLI::App& app, ViewerOptions& o) {
     app.add_option(
         "--geomorph", o.geomorph,
         "refine to this share of --tau and slide vertices instead of popping them (0: off)");
+    app.add_flag(
+        "!--sync-tessellation", o.async_tessellation,
+        "tessellate on the frame thread (default: on a worker thread, except with --geomorph)");
     app.add_option("--max-triangles", o.max_triangles, "tessellation triangle cap");
     app.add_option(
         "--frame-ms", o.frame_ms,

@@ -35,6 +35,10 @@ struct BotConfig {
     /// 0: each op as it arrives.
     int ops_per_frame = client::kDefaultOpsPerFrame;
     bool render = false; ///< offscreen: frame times include drawing
+    /// The tessellation runs on a worker thread (client::TessellationWorker): the frame posts its
+    /// camera and takes the newest finished tiles, never waiting. false: on the frame thread
+    /// (TerrainView, the synchronous path).
+    bool async_tessellation = true;
     render::OffscreenBackend backend = render::OffscreenBackend::kOsmesa;
     /// A debug context: every KHR_debug message logged (stderr), errors counted in the report.
     bool gl_debug = false;

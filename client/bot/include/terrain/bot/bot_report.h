@@ -39,7 +39,11 @@ struct BotReport {
     int craters_accepted = 0;
     int craters_refused = 0;
     int craters_missed = 0; ///< the click's ray hit no ground
+    /// The frame thread's tessellation: update() when synchronous; posting the camera and
+    /// taking the worker's tiles when on a worker (async).
     Spread tessellate_ms;
+    bool async_tessellation = false;
+    Spread lag_frames; ///< async: frames the drawn mesh was behind the frame's camera
     Spread render_ms;  ///< sync + draw + present (0 without rendering)
     Spread sync_ms;    ///< of it, the renderer's sync: vertices, normals, staging, GPU copies
     Spread draw_ms;    ///< the draw calls' submission

@@ -46,6 +46,10 @@ class SplitMergeMesh {
     virtual void merge(DiamondId id, FrameStats& stats) = 0;
     /// The frame's work or upload budget is spent (what is left waits for the next frame).
     virtual bool budgetSpent(FrameStats& stats) const = 0;
+    /// The share of the frame's budget merges may spend is: a mesh whose threshold rose (the
+    /// cap binds) has thousands of merges due, and merged first they would leave the splits the
+    /// view needs waiting frame after frame. The whole budget unless the mesh says otherwise.
+    virtual bool mergeBudgetSpent(FrameStats& stats) const { return budgetSpent(stats); }
 
   protected:
     ~SplitMergeMesh() = default;

@@ -43,6 +43,7 @@
 #include <terrain/roam/tile_emitter.h>
 #include <terrain/roam/tile_mesh.h>
 #include <terrain/roam/tile_vertex_arrays.h>
+#include <terrain/roam/update_phases.h>
 #include <terrain/terrain.h>
 
 #include <cstdint>
@@ -84,6 +85,8 @@ class Tessellator {
     /// if there is no such diamond or the cap refuses it.
     bool splitAt(LatticePoint p, FrameStats& stats);
     const TessellatorOptions& options() const { return options_; }
+    /// Told as each pass of update() begins (timing at the edge; null: nobody). Not owned.
+    void setPhaseObserver(UpdatePhaseObserver* observer) { phases_ = observer; }
 
     // the tiles, as the renderer reads them (tile_emitter.h, tile_vertex_arrays.h)
     std::int32_t tileCount() const { return emitter_.tileCount(); }
@@ -267,7 +270,15 @@ class Tessellator {
     std::int64_t uploadSpent() const { return uploadTotal() - upload_at_frame_start_; }
     std::int64_t uploadTotal() const { return emitter_.uploadBytes(); }
     /// Either budget spent: what is left waits for the next frame.
-    bool budgetSpent(FrameStats& stats) const;
+    /// The work budget, or `upload_share` of the upload budget, is spent.
+    bool budgetSpent(FrameStats& stats, double upload_share) const;
+    /// Merges may spend three quarters of the upload budget: the splits the view needs get the
+    /// rest even while a risen threshold has thousands of merges due. Measured in the battle at
+    /// the triangle cap (client_battle_bench --async --lockstep, error bound p50 / p99 px):
+    /// merges spending it all, hover 1.61 / 199, cross 1.37 / 108 (60-250 px for 10 frames at
+    /// a time); half, 1.61 / 1.77 and 1.87 / 14.4 (deferred merges re-examined, twice the
+    /// evaluations); three quarters, 1.61 / 1.77 and 1.39 / 3.83.
+    static constexpr double kMergeUploadShare = 0.75;
     /// Re-offers a diamond whose bounds moved as the candidate its place in the mesh makes it.
     void refreshCandidate(DiamondId id);
     /// Replaces rectangles that overlap enough by their union (in place; order not kept).
@@ -325,6 +336,11 @@ class Tessellator {
     glm::dvec3 last_eye_{0.0};
     std::int64_t triangles_ = 0;
     std::int64_t missing_block_refusals_ = 0;
+    UpdatePhaseObserver* phases_ = nullptr;
+    void enter(UpdatePhase phase) {
+        if (phases_ != nullptr)
+            phases_->enter(phase);
+    }
 };
 
 } // namespace terrain::roam

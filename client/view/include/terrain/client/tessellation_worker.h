@@ -24,6 +24,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -42,17 +43,23 @@ struct TessellationWorkerOptions {
 
 /// What the worker did for the delta the frame thread holds.
 struct WorkerStep {
-    std::uint64_t step = 0;  ///< the worker's steps so far (one per tessellation)
-    std::uint64_t frame = 0; ///< the post whose camera it tessellated (1 = the first)
-    std::uint64_t seq = 0;   ///< the replica seq its world had reached
-    std::uint64_t ops = 0;   ///< ops the step applied (their craters are in its mesh)
+    std::uint64_t step = 0;         ///< the worker's steps so far (one per tessellation)
+    std::uint64_t frame = 0;        ///< the post whose camera it tessellated (1 = the first)
+    std::uint64_t seq = 0;          ///< the replica seq its world had reached
+    std::uint64_t ops = 0;          ///< ops the step applied (their craters are in its mesh)
+    std::int64_t max_triangles = 0; ///< the cap the step ran under (the frame budget moves it)
     std::uint64_t world_hash = 0;
     double threshold = 0.0; ///< the tessellator's threshold after the step (pixels)
     roam::FrameStats stats;
-    /// Worker time for the step: applying the changes, tessellating, writing the delta (ms).
+    /// Worker time for the step (ms): applying the changes to its world, telling the
+    /// tessellator (terrainChanged: blocks and bounds marked stale), tessellating, writing the
+    /// delta; and update()'s passes (UpdatePhase order: stale bounds, rebuild, split/merge,
+    /// finish frame, pool upkeep).
     double apply_ms = 0.0;
+    double absorb_ms = 0.0;
     double update_ms = 0.0;
     double collect_ms = 0.0;
+    std::array<double, roam::kUpdatePhases> phase_ms{};
     std::uint64_t delta_bytes = 0; ///< the delta's payload (vertices and index pages)
 };
 
@@ -77,6 +84,9 @@ class TessellationWorker {
     /// Frame thread: applies the newest finished delta to `mesh` if there is one it has not
     /// taken; whether `mesh` changed. `mesh` must be fed by this worker alone.
     bool take(roam::DrawnMesh& mesh);
+    /// Posts `camera` and waits until the worker has tessellated it, then takes it: a frame that
+    /// must show everything up to now (a loading screen's end, a final picture). Waits.
+    void finish(const roam::Camera& camera, roam::DrawnMesh& mesh);
 
     /// The step behind the delta last taken (zeros before the first).
     const WorkerStep& taken() const { return taken_; }
@@ -96,6 +106,8 @@ class TessellationWorker {
     static constexpr std::uint32_t kIndex = 3;
 
     void run();
+    /// Waits until the worker has finished frame `frame`.
+    void waitFor(std::uint64_t frame);
 
     TessellationWorkerOptions options_;
     Replica* replica_;
@@ -111,7 +123,7 @@ class TessellationWorker {
     std::optional<std::int64_t> in_max_triangles_;
     bool stop_ = false;
 
-    // lockstep: the frame the worker last finished
+    // the frame the worker last finished (lockstep and finish() wait for it)
     std::mutex done_mutex_;
     std::condition_variable done_cv_;
     std::uint64_t done_frame_ = 0;
@@ -131,6 +143,8 @@ class TessellationWorker {
     WorkerStep taken_;
 
     // the worker's (built on the constructing thread before it starts)
+    class PhaseClock;
+    std::unique_ptr<PhaseClock> phase_clock_;
     Replica world_;
     std::optional<TerrainView> view_;
     roam::DeltaCollector collector_;

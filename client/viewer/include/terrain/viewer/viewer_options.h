@@ -30,6 +30,9 @@ struct ViewerOptions {
     /// Geomorphing (TerrainRenderer::setGeomorph): refine to this share of tau, draw vertices
     /// sliding so that no split or merge pops; 0: off (BENCHMARKS: it costs CPU per frame).
     double geomorph = 0.0;
+    /// The tessellation on a worker thread (client::TessellationWorker): the frame never waits
+    /// for it. false (--sync-tessellation), or geomorphing on: on the frame thread.
+    bool async_tessellation = true;
     std::int64_t max_triangles = 300'000;
     /// Frame time (tessellation + drawing) to hold by lowering the triangle cap; 0: off. 50 ms
     /// is 20 frames a second from llvmpipe at 720p (about 90,000 lit triangles).
