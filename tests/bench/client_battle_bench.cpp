@@ -123,6 +123,7 @@ struct Settings {
     bool render = false;
     bool async = false;
     bool lockstep = false;
+    unsigned threads = 0;
     double fps = 60.0;
     double frame_target_ms = 0.0;
     ProceduralMapOptions map;
@@ -174,6 +175,9 @@ std::optional<int> parseSettings(int argc, char** argv, Settings& s) {
         "--lockstep", s.lockstep,
         "--async: each frame waits for its step (the synchronous path's steps on the worker: "
         "its cost per crater, comparable; --fps ignored)");
+    app.add_option(
+        "--threads", s.threads,
+        "--async: threads a worker step may use, its own included (0: min(cores - 1, 4))");
     app.add_option("--fps", s.fps, "--async: frames a second the frame loop keeps (real time)")
         ->check(CLI::Range(1.0, 1000.0));
     app.add_option(
@@ -467,7 +471,8 @@ AsyncTally flyAsync(
 }
 
 /// The asynchronous run's JSON report and summary.
-Json asyncReportOf(const Settings& s, const Battle& battle, const AsyncTally& t) {
+Json asyncReportOf(
+    const Settings& s, const Battle& battle, const AsyncTally& t, unsigned worker_threads) {
     std::vector<double> step_ms, step_update, step_apply, step_collect, crater_steps, delta_kib;
     std::vector<double> per_op_ms;
     // the cost model, over the steps that applied ops (craters), no rebuild: each part's time
@@ -528,6 +533,7 @@ Json asyncReportOf(const Settings& s, const Battle& battle, const AsyncTally& t)
         {"date", bench::isoNow()},
         {"cpu", bench::cpuModel()},
         {"cores", std::thread::hardware_concurrency()},
+        {"worker_threads", worker_threads},
         {"map", "procedural " + std::to_string(s.map.width) + " x " + std::to_string(s.map.width)},
         {"flight", s.flight},
         {"viewport", std::to_string(s.width) + " x " + std::to_string(s.height)},
@@ -596,9 +602,9 @@ Json asyncReportOf(const Settings& s, const Battle& battle, const AsyncTally& t)
                       {"worker_crater_p50_le_3ms", crater.p50 <= 3.0},
                       {"worker_crater_p99_le_8ms", crater.p99 <= 8.0}}}};
     std::printf(
-        "client_battle_bench --async%s: %zu ops, %zu frames at %.0f fps, %s flight, tau %.2g "
-        "px, %d x %d%s\n",
-        s.lockstep ? " --lockstep" : "", battle.sent.size(), t.frame_thread.size(),
+        "client_battle_bench --async%s (worker on %u threads): %zu ops, %zu frames at %.0f fps, "
+        "%s flight, tau %.2g px, %d x %d%s\n",
+        s.lockstep ? " --lockstep" : "", worker_threads, battle.sent.size(), t.frame_thread.size(),
         s.lockstep ? 0.0 : s.fps, s.flight.c_str(), s.tau, s.width, s.height,
         s.render ? ", rendered (OSMesa)" : "");
     std::printf(
@@ -793,9 +799,10 @@ int main(int argc, char** argv) {
         wo.view.budget.max_triangles = s.max_triangles;
         wo.keep_step_log = true;
         wo.lockstep = s.lockstep;
+        wo.threads = s.threads;
         client::TessellationWorker worker(replica, wo);
         const AsyncTally t = flyAsync(s, battle, replica, worker, *renderer);
-        const Json json = asyncReportOf(s, battle, t);
+        const Json json = asyncReportOf(s, battle, t, worker.threads());
         if (!s.out.empty()) {
             std::ofstream file(s.out);
             if (!file) {

@@ -8,6 +8,7 @@
 
 #include <terrain/fixed_point.h>
 #include <terrain/roam/bounds_update.h>
+#include <terrain/task_runner.h>
 
 #include <gtest/gtest.h>
 
@@ -134,6 +135,60 @@ TEST(RoamBoundsUpdate, ABlocksOwnPassIsNotReusedOnceTheSurfaceChanged) {
                 << "grain " << g << " slot " << slot;
         }
     }
+}
+
+} // namespace
+} // namespace terrain::testing
+
+namespace terrain::testing {
+namespace {
+
+// The stale pass spread over threads (squares of cells in groups, a kernel each) leaves the state
+// the serial pass leaves: every height and bound, the ids reported moved in the same order, and
+// the tiles' vertex versions and change marks (what a renderer uploads).
+TEST(RoamBoundsUpdate, ASpreadPassLeavesWhatTheSerialPassLeaves) {
+    RoamParts serial(crateredWorld());
+    RoamParts spread(crateredWorld());
+    ThreadPool pool(3);
+    spread.bounds.setTaskRunner(&pool);
+    const OpRequest op = craterKeepingTheRecords(serial);
+    serial.apply(op);
+    spread.apply(op);
+    ASSERT_GE(spread.bounds.staleCount(), 64u) << "too few stale blocks to spread";
+    for (std::int32_t t = 0; t < serial.emitter.tileCount(); ++t) {
+        serial.emitter.vertices().take(t);
+        spread.emitter.vertices().take(t);
+    }
+    while (serial.bounds.staleCount() > 0 || spread.bounds.staleCount() > 0) {
+        serial.bounds.drainStale(200);
+        spread.bounds.drainStale(200);
+        ASSERT_TRUE(std::equal(
+            serial.bounds.moved().begin(), serial.bounds.moved().end(),
+            spread.bounds.moved().begin(), spread.bounds.moved().end()));
+    }
+    EXPECT_GT(spread.bounds.parallelPasses(), 0);
+    EXPECT_EQ(serial.bounds.parallelPasses(), 0);
+    EXPECT_EQ(spread.everyHeight(), serial.everyHeight());
+    const std::vector<DiamondBounds> a = serial.everyBound();
+    const std::vector<DiamondBounds> b = spread.everyBound();
+    ASSERT_EQ(a.size(), b.size());
+    for (std::size_t i = 0; i < a.size(); ++i)
+        ASSERT_TRUE(a[i].delta == b[i].delta && a[i].zlo == b[i].zlo && a[i].zhi == b[i].zhi)
+            << "diamond " << i;
+    std::size_t marked = 0;
+    for (std::int32_t t = 0; t < serial.emitter.tileCount(); ++t) {
+        const roam::TileVertexArrays& va = serial.emitter.vertices();
+        const roam::TileVertexArrays& vb = spread.emitter.vertices();
+        EXPECT_EQ(va.version(t), vb.version(t)) << "tile " << t;
+        EXPECT_EQ(va.allChanged(t), vb.allChanged(t)) << "tile " << t;
+        const auto ra = va.changes(t);
+        const auto rb = vb.changes(t);
+        ASSERT_EQ(ra.size(), rb.size()) << "tile " << t;
+        for (std::size_t k = 0; k < ra.size(); ++k)
+            ASSERT_TRUE(ra[k].begin == rb[k].begin && ra[k].end == rb[k].end) << "tile " << t;
+        marked += ra.size();
+    }
+    EXPECT_GT(marked, 0u) << "the passes marked no vertex: nothing was compared";
 }
 
 } // namespace

@@ -1,8 +1,8 @@
 // The hand-over of a tessellator's tiles to another thread's copy (DeltaCollector -> MeshDelta
-// -> DrawnMesh), on one thread: through a battle flight, a whip, a teleport and a new world,
-// with deltas taken at random and the rest superseded, the copy equals the tessellator's tiles
-// at the step of the last delta taken (lists, vertices as drawn, versions, visibility), and a
-// renderer that follows the copy's change marks holds the same bytes.
+// -> DrawnMesh), the deltas written by three threads: through a battle flight, a whip, a teleport
+// and a new world, with deltas taken at random and the rest superseded, the copy equals the
+// tessellator's tiles at the step of the last delta taken (lists, vertices as drawn, versions,
+// visibility), and a renderer that follows the copy's change marks holds the same bytes.
 
 #include "support/drawn_mesh_checks.h"
 #include "support/terrain_builders.h"
@@ -11,6 +11,7 @@
 #include <terrain/roam/drawn_mesh.h>
 #include <terrain/roam/tessellator.h>
 #include <terrain/surface_query.h>
+#include <terrain/task_runner.h>
 
 #include <gtest/gtest.h>
 
@@ -138,6 +139,10 @@ TEST(MeshDelta, ACopyFedAnySubsequenceOfDeltasEqualsTheTessellatorAtTheLastOnesS
     Terrain other = world(5, 321); // 5 x 5 tiles: a new world mid-flight
     Tessellator tess(t, {});
     roam::DeltaCollector collector;
+    // the contents written by three threads, in uneven groups of tiles (the serial path is the
+    // next test's, and the worker's at one thread)
+    ThreadPool pool(3);
+    collector.setTaskRunner(&pool);
     MeshDelta delta;
     DrawnMesh copy;
     FakeRenderer renderer;

@@ -12,6 +12,7 @@
 
 #include <terrain/roam/tessellator.h>
 #include <terrain/surface_query.h>
+#include <terrain/task_runner.h>
 
 #include <gtest/gtest.h>
 #include <xxhash.h>
@@ -98,6 +99,42 @@ Terrain world() {
     return t;
 }
 
+// the battle flight: two craters a frame ahead of a low camera; the stale bounds pass on
+// `runner` when given (the same meshes at any thread count)
+void flyBattle(std::vector<FrameHash>& out, TaskRunner* runner, std::int64_t* parallel_passes) {
+    Terrain t = world();
+    Tessellator tess(t, {});
+    tess.setTaskRunner(runner);
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    for (int f = 0; f < 40; ++f) {
+        const double x = 30.0 + f * 4.5;
+        const double y = 70.0 + f * 2.0;
+        // two shots a frame, 15-40 m ahead of a camera 6 m up
+        for (int shot = 0; shot < 2; ++shot) {
+            const double ahead = 15.0 + 25.0 * unit(rng);
+            const double side = (unit(rng) - 0.5) * 20.0;
+            OpRequest r;
+            r.x = x + ahead * 0.9 - side * 0.45;
+            r.y = y + ahead * 0.45 + side * 0.9;
+            r.radius = 1.0 + 4.0 * unit(rng);
+            r.height = 0.4 * r.radius;
+            r.strength = 0.3 + 0.5 * unit(rng);
+            auto op = quantizeOp(r, t.spec());
+            if (!op)
+                continue; // off the map
+            auto effect = t.apply(*op);
+            if (effect)
+                tess.terrainChanged(std::span<const CellRect>(&effect->cells, 1), false);
+        }
+        const glm::dvec3 eye(x, y, surfaceHeight(t, x, y) + 6.0);
+        tess.update(camera(eye, eye + glm::dvec3(0.9, 0.45, -0.25)));
+        out.push_back({"battle", f, meshHash(tess), tess.triangleCount()});
+    }
+    if (parallel_passes != nullptr)
+        *parallel_passes = tess.parallelBoundsPasses();
+}
+
 // the three flights, each on a fresh world and tessellator, frame by frame
 std::vector<FrameHash> fly() {
     std::vector<FrameHash> out;
@@ -127,36 +164,7 @@ std::vector<FrameHash> fly() {
             record("whip", f, tess);
         }
     }
-    {
-        Terrain t = world();
-        Tessellator tess(t, {});
-        std::mt19937_64 rng(7);
-        std::uniform_real_distribution<double> unit(0.0, 1.0);
-        for (int f = 0; f < 40; ++f) {
-            const double x = 30.0 + f * 4.5;
-            const double y = 70.0 + f * 2.0;
-            // two shots a frame, 15-40 m ahead of a camera 6 m up
-            for (int shot = 0; shot < 2; ++shot) {
-                const double ahead = 15.0 + 25.0 * unit(rng);
-                const double side = (unit(rng) - 0.5) * 20.0;
-                OpRequest r;
-                r.x = x + ahead * 0.9 - side * 0.45;
-                r.y = y + ahead * 0.45 + side * 0.9;
-                r.radius = 1.0 + 4.0 * unit(rng);
-                r.height = 0.4 * r.radius;
-                r.strength = 0.3 + 0.5 * unit(rng);
-                auto op = quantizeOp(r, t.spec());
-                if (!op)
-                    continue; // off the map
-                auto effect = t.apply(*op);
-                if (effect)
-                    tess.terrainChanged(std::span<const CellRect>(&effect->cells, 1), false);
-            }
-            const glm::dvec3 eye(x, y, surfaceHeight(t, x, y) + 6.0);
-            tess.update(camera(eye, eye + glm::dvec3(0.9, 0.45, -0.25)));
-            record("battle", f, tess);
-        }
-    }
+    flyBattle(out, nullptr, nullptr);
     return out;
 }
 
@@ -192,6 +200,28 @@ TEST(GoldenMesh, EveryFrameOfTheThreeFlightsHasTheRecordedMesh) {
         ASSERT_EQ(line(got[i]), expected[i]) << "the first frame whose mesh differs";
     // the flights do what they are for: the mesh changes along them
     EXPECT_NE(got.front().hash, got[39].hash);
+}
+
+TEST(GoldenMesh, TheBattleHasTheRecordedMeshesWithItsBoundsOnTwoAndFourThreads) {
+    std::ifstream in(kGoldenFile);
+    ASSERT_TRUE(in.good()) << kGoldenFile << " is missing";
+    std::vector<std::string> expected;
+    for (std::string text; std::getline(in, text);)
+        if (text.rfind("battle ", 0) == 0)
+            expected.push_back(text);
+    ASSERT_EQ(expected.size(), 40u);
+    for (const unsigned threads : {2u, 4u}) {
+        ThreadPool pool(threads);
+        std::vector<FrameHash> got;
+        std::int64_t parallel = 0;
+        flyBattle(got, &pool, &parallel);
+        ASSERT_EQ(got.size(), expected.size());
+        for (std::size_t i = 0; i < got.size(); ++i)
+            ASSERT_EQ(line(got[i]), expected[i])
+                << threads << " threads: the first frame whose mesh differs";
+        // the spread pass ran (passes of 32 blocks or more)
+        EXPECT_GT(parallel, 10) << threads << " threads";
+    }
 }
 
 } // namespace

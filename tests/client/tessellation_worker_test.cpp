@@ -91,7 +91,9 @@ TEST(TessellationWorker, InLockstepItDrawsWhatTheSynchronousPathDrawsFrameByFram
     server.load(sync_replica);
     TessellationWorkerOptions o;
     o.lockstep = true;
+    o.threads = 2; // the delta's contents on two threads: the same bytes
     TessellationWorker worker(frame_replica, o);
+    ASSERT_EQ(worker.threads(), 2u);
     TerrainView sync(sync_replica, o.view);
     // the synchronous path's renderer takes the tessellator's changes every frame, as the
     // worker's collector does: what a frame may upload (the upload budget) is counted the same

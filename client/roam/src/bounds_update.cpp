@@ -87,7 +87,11 @@ void BoundsUpdate::reset(const Terrain& terrain, const Geometry& geometry) {
 }
 
 std::size_t BoundsUpdate::memoryBytes() const {
-    return kernel_.memoryBytes() + centre_cache_.capacity() * sizeof(DiamondBounds);
+    std::size_t bytes = kernel_.memoryBytes() + centre_cache_.capacity() * sizeof(DiamondBounds);
+    for (const PassScratch& s : scratch_)
+        bytes += s.kernel.memoryBytes() + s.moved.capacity() * sizeof(DiamondId) +
+                 s.marks.capacity() * sizeof(VertexMark);
+    return bytes;
 }
 
 std::int32_t BoundsUpdate::tileOfCell(DetailBlocks::CellXY c) const {
@@ -295,7 +299,13 @@ std::int64_t BoundsUpdate::drainStale(std::int64_t budget) {
     stale_.take(budget, pass_);
     if (pass_.empty())
         return 0;
-    boundBlocks(pass_, true, nullptr);
+    // below this many blocks, handing out work costs more than it saves
+    constexpr std::size_t kParallelBlocks = 32;
+    if (runner_ != nullptr && runner_->threads() > 1 && pass_.size() >= kParallelBlocks) {
+        boundBlocksParallel(pass_);
+        ++parallel_passes_;
+    } else
+        boundBlocks(pass_, true, nullptr);
     return static_cast<std::int64_t>(pass_.size());
 }
 
@@ -395,6 +405,14 @@ void BoundsUpdate::storePass(std::size_t i, std::int32_t block, unsigned grain_m
 }
 
 void BoundsUpdate::storeHeights(std::int32_t block, unsigned grain_mask) {
+    storeHeightsFrom(heights_, block, grain_mask, nullptr);
+}
+
+void BoundsUpdate::storeHeightsFrom(
+    const std::array<std::int64_t, kBlockVertices>& heights_in,
+    std::int32_t block,
+    unsigned grain_mask,
+    std::vector<VertexMark>* marks) {
     const GrainTables& tables = grainTables();
     for (int g = 0; g < kGrains; ++g) {
         const std::int32_t chunk = pool_.chunkOf(block, g);
@@ -402,14 +420,14 @@ void BoundsUpdate::storeHeights(std::int32_t block, unsigned grain_mask) {
             continue;
         const auto vertices = static_cast<std::size_t>(kGrainVertices[static_cast<std::size_t>(g)]);
         const auto& local = tables.vertex_local[static_cast<std::size_t>(g)];
-        std::int64_t lowest = heights_[local[0]];
+        std::int64_t lowest = heights_in[local[0]];
         for (std::size_t v = 1; v < vertices; ++v)
-            lowest = std::min(lowest, heights_[local[v]]);
+            lowest = std::min(lowest, heights_in[local[v]]);
         bool moved = pool_.base(g, chunk) != lowest;
         pool_.base(g, chunk) = lowest;
         const std::span<std::uint32_t> heights = pool_.heights(g, chunk);
         for (std::size_t v = 0; v < vertices; ++v) {
-            const auto h = static_cast<std::uint32_t>(heights_[local[v]] - lowest);
+            const auto h = static_cast<std::uint32_t>(heights_in[local[v]] - lowest);
             std::uint32_t& stored = heights[v];
             moved = moved || stored != h;
             stored = h;
@@ -418,12 +436,102 @@ void BoundsUpdate::storeHeights(std::int32_t block, unsigned grain_mask) {
         // again (heights freshened after the op's own bump, or by a later bounds pass)
         if (moved)
             if (const std::int32_t tile = tileOfCell(blocks_.cellOf(block)); tile >= 0) {
-                vertices_.bumpVersion(tile);
+                std::uint32_t first = 0;
+                std::uint32_t end = 0;
                 if (const std::int32_t segment = pool_.segment(g, chunk); segment >= 0) {
-                    const std::uint32_t first = vertices_.firstVertex(tile, segment);
-                    vertices_.mark(tile, first, first + static_cast<std::uint32_t>(vertices));
+                    first = vertices_.firstVertex(tile, segment);
+                    end = first + static_cast<std::uint32_t>(vertices);
+                }
+                if (marks != nullptr) {
+                    marks->push_back({tile, first, end});
+                } else {
+                    vertices_.bumpVersion(tile);
+                    if (end > first)
+                        vertices_.mark(tile, first, end);
                 }
             }
+    }
+}
+
+void BoundsUpdate::storePassTo(
+    PassScratch& scratch, std::size_t i, std::int32_t block, unsigned grain_mask) {
+    const GrainTables& tables = grainTables();
+    scratch.kernel.heights(i, scratch.heights);
+    storeHeightsFrom(scratch.heights, block, grain_mask, &scratch.marks);
+    for (int g = 0; g < kGrains; ++g) {
+        if ((grain_mask & (1u << g)) == 0)
+            continue;
+        const std::int32_t chunk = pool_.chunkOf(block, g);
+        const auto diamonds = static_cast<std::size_t>(kGrainDiamonds[static_cast<std::size_t>(g)]);
+        for (std::size_t slot = 0; slot < diamonds; ++slot) {
+            const std::uint8_t local = tables.diamond_local[static_cast<std::size_t>(g)][slot];
+            if (g == 0 && (local == 0 || local == kCentreLocal * kLatticePerCell + kCentreLocal))
+                continue; // the grid vertex and the (eager) centre
+            const DiamondId id = DiamondSpace::pooledId(g, chunk, static_cast<std::uint32_t>(slot));
+            if (space_.storeBounds(id, scratch.kernel.bounds(i, local)))
+                scratch.moved.push_back(id);
+        }
+    }
+}
+
+void BoundsUpdate::boundBlocksParallel(std::span<const std::int32_t> blocks) {
+    // the serial pass's order and squares (boundBlocks), the squares in groups of consecutive
+    // ones, each group on one thread with its own kernel; each block's state is its own, the
+    // rest is listed per group and made here in the groups' order: the serial order
+    constexpr std::int32_t kSquare = 16;
+    pass_blocks_.assign(blocks.begin(), blocks.end());
+    const auto square = [&](std::int32_t b) {
+        const DetailBlocks::CellXY c = blocks_.cellOf(b);
+        return std::pair{c.y / kSquare, c.x / kSquare};
+    };
+    std::sort(pass_blocks_.begin(), pass_blocks_.end(), [&](std::int32_t a, std::int32_t b) {
+        return std::pair{square(a), a} < std::pair{square(b), b};
+    });
+    square_ends_.clear();
+    for (std::size_t i = 1; i <= pass_blocks_.size(); ++i)
+        if (i == pass_blocks_.size() || square(pass_blocks_[i]) != square(pass_blocks_[i - 1]))
+            square_ends_.push_back(i);
+    const std::size_t groups = std::min<std::size_t>(runner_->threads(), square_ends_.size());
+    if (scratch_.size() < groups)
+        scratch_.resize(groups);
+    // about as many blocks per group
+    group_ends_.assign(groups, square_ends_.size());
+    for (std::size_t k = 0, g = 0; k < square_ends_.size() && g + 1 < groups; ++k)
+        if (square_ends_[k] * groups >= (g + 1) * pass_blocks_.size())
+            group_ends_[g++] = k + 1;
+    const BlockGeometry geometry{
+        metres_per_fine_, grid_w_, grid_h_, spec_.cellsX(), spec_.cellsY()};
+    bounded_cell_ = {}; // kernel_ is not this pass's
+    runner_->run(groups, [&](std::size_t group) {
+        PassScratch& scratch = scratch_[group];
+        scratch.moved.clear();
+        scratch.marks.clear();
+        const std::size_t first_square = group == 0 ? 0 : group_ends_[group - 1];
+        for (std::size_t q = first_square; q < group_ends_[group]; ++q) {
+            const std::size_t first = q == 0 ? 0 : square_ends_[q - 1];
+            const std::size_t last = square_ends_[q];
+            scratch.cells.clear();
+            for (std::size_t i = first; i < last; ++i)
+                scratch.cells.push_back(blocks_.cellOf(pass_blocks_[i]));
+            scratch.kernel.compute(*terrain_, blocks_, geometry, scratch.cells);
+            for (std::size_t i = first; i < last; ++i) {
+                const std::int32_t b = pass_blocks_[i];
+                unsigned mask = 0;
+                for (int g = 0; g < kGrains; ++g)
+                    if (pool_.chunkOf(b, g) >= 0)
+                        mask |= 1u << g;
+                storePassTo(scratch, i - first, b, mask);
+            }
+        }
+    });
+    for (std::size_t group = 0; group < groups; ++group) {
+        const PassScratch& scratch = scratch_[group];
+        moved_.insert(moved_.end(), scratch.moved.begin(), scratch.moved.end());
+        for (const VertexMark& m : scratch.marks) {
+            vertices_.bumpVersion(m.tile);
+            if (m.end > m.begin)
+                vertices_.mark(m.tile, m.begin, m.end);
+        }
     }
 }
 

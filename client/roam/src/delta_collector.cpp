@@ -123,13 +123,41 @@ void DeltaCollector::collect(Tessellator& tess, const Terrain& terrain, MeshDelt
     // ascending tiles: a reader's work and the delta's layout follow the map, not the order of
     // the changes
     std::sort(pending_tiles_.begin(), pending_tiles_.end());
-    builder_.newFrame(); // the terrain may have changed since the last collect
+    // the layout first (which pages and runs, where their contents go), then the contents: per
+    // group of tiles on the runner, each group with its own builder, each writing its own slots
     for (const std::int32_t t : pending_tiles_)
-        write(tess, terrain, t, out);
+        layout(tess, t, out);
+    out.page_indices.resize(out.pages.size() * MeshDelta::kPageIndices);
+    std::size_t vertices = 0;
+    for (const MeshDelta::Run& run : out.runs)
+        vertices += run.end - run.begin;
+    out.vertices.resize(vertices);
+    const std::size_t groups = runner_ != nullptr && runner_->threads() > 1 && out.tiles.size() > 1
+                                   ? std::min<std::size_t>(runner_->threads(), out.tiles.size())
+                                   : 1;
+    if (builders_.size() < groups)
+        builders_.resize(groups);
+    for (std::size_t g = 0; g < groups; ++g)
+        builders_[g].newFrame(); // the terrain may have changed since the last collect
+    // groups of consecutive tiles holding about the same number of vertices
+    group_ends_.assign(groups, out.tiles.size());
+    std::size_t g = 0;
+    std::size_t done = 0;
+    for (std::size_t k = 0; k < out.tiles.size() && g + 1 < groups; ++k) {
+        const MeshDelta::Tile& e = out.tiles[k];
+        for (std::uint32_t r = e.first_run; r < e.first_run + e.run_count; ++r)
+            done += out.runs[r].end - out.runs[r].begin;
+        if (done * groups >= (g + 1) * std::max<std::size_t>(vertices, 1))
+            group_ends_[g++] = k + 1;
+    }
+    forEachTask(runner_, groups, 2, [&](std::size_t group) {
+        const std::size_t first = group == 0 ? 0 : group_ends_[group - 1];
+        for (std::size_t k = first; k < group_ends_[group]; ++k)
+            fill(tess, terrain, out.tiles[k], builders_[group], out);
+    });
 }
 
-void DeltaCollector::write(
-    Tessellator& tess, const Terrain& terrain, std::int32_t t, MeshDelta& out) {
+void DeltaCollector::layout(const Tessellator& tess, std::int32_t t, MeshDelta& out) {
     Pending& p = pending_[at(t)];
     const TileMesh& mesh = tess.tileMesh(t);
     MeshDelta::Tile entry;
@@ -153,8 +181,32 @@ void DeltaCollector::write(
                 out.pages.push_back(page);
     }
     entry.page_count = static_cast<std::uint32_t>(out.pages.size()) - entry.first_page;
-    const std::span<const std::uint32_t> indices = mesh.indices();
-    out.page_indices.resize(out.pages.size() * MeshDelta::kPageIndices);
+
+    // vertex runs, their values at consecutive places in out.vertices
+    entry.first_run = static_cast<std::uint32_t>(out.runs.size());
+    std::uint64_t at_vertex =
+        out.runs.empty() ? 0 : out.runs.back().at + (out.runs.back().end - out.runs.back().begin);
+    if (p.all_vertices) {
+        if (entry.vertex_count > 0)
+            out.runs.push_back({0, entry.vertex_count, at_vertex});
+    } else {
+        normalise(p.ranges, entry.vertex_count);
+        for (const VertexRange& r : p.ranges) {
+            out.runs.push_back({r.begin, r.end, at_vertex});
+            at_vertex += r.end - r.begin;
+        }
+    }
+    entry.run_count = static_cast<std::uint32_t>(out.runs.size()) - entry.first_run;
+    out.tiles.push_back(entry);
+}
+
+void DeltaCollector::fill(
+    const Tessellator& tess,
+    const Terrain& terrain,
+    const MeshDelta::Tile& entry,
+    TileVertexBuilder& builder,
+    MeshDelta& out) {
+    const std::span<const std::uint32_t> indices = tess.tileMesh(entry.tile).indices();
     for (std::uint32_t k = entry.first_page; k < entry.first_page + entry.page_count; ++k) {
         const std::size_t from = std::size_t{out.pages[k]} * MeshDelta::kPageIndices;
         const std::size_t n = std::min<std::size_t>(MeshDelta::kPageIndices, indices.size() - from);
@@ -162,27 +214,13 @@ void DeltaCollector::write(
         std::memcpy(into, indices.data() + from, n * sizeof(std::uint32_t));
         std::fill(into + n, into + MeshDelta::kPageIndices, 0u);
     }
-
-    // vertex runs, built as they are drawn (normals from `terrain`)
-    entry.first_run = static_cast<std::uint32_t>(out.runs.size());
-    if (p.all_vertices) {
-        if (entry.vertex_count > 0)
-            out.runs.push_back({0, entry.vertex_count, 0});
-    } else {
-        normalise(p.ranges, entry.vertex_count);
-        for (const VertexRange& r : p.ranges)
-            out.runs.push_back({r.begin, r.end, 0});
-    }
-    entry.run_count = static_cast<std::uint32_t>(out.runs.size()) - entry.first_run;
+    // built as they are drawn (normals from `terrain`)
     for (std::uint32_t k = entry.first_run; k < entry.first_run + entry.run_count; ++k) {
-        MeshDelta::Run& run = out.runs[k];
-        run.at = out.vertices.size();
-        out.vertices.resize(out.vertices.size() + (run.end - run.begin));
-        builder_.build(
-            tess, terrain, t, run.begin,
+        const MeshDelta::Run& run = out.runs[k];
+        builder.build(
+            tess, terrain, entry.tile, run.begin,
             std::span<DrawVertex>(out.vertices.data() + run.at, run.end - run.begin));
     }
-    out.tiles.push_back(entry);
 }
 
 } // namespace terrain::roam

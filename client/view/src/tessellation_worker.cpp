@@ -1,5 +1,6 @@
 #include <terrain/client/tessellation_worker.h>
 
+#include <algorithm>
 #include <chrono>
 #include <utility>
 
@@ -36,12 +37,24 @@ class TessellationWorker::PhaseClock final : public roam::UpdatePhaseObserver {
     std::chrono::steady_clock::time_point started_{};
 };
 
+unsigned TessellationWorkerOptions::defaultThreads() {
+    const unsigned hardware = ThreadPool::hardwareThreads();
+    return std::clamp(hardware > 1 ? hardware - 1 : 1u, 1u, 4u);
+}
+
 TessellationWorker::TessellationWorker(Replica& replica, const TessellationWorkerOptions& options)
     : options_(options), replica_(&replica) {
     // the worker's world: a copy of the replica's now, then the same changes as it
     world_.loadSnapshot(DecodedSnapshot{Terrain(replica.terrain()), replica.seq()});
     replica.recordChanges(true);
     view_.emplace(world_, options.view);
+    const unsigned threads =
+        options.threads > 0 ? options.threads : TessellationWorkerOptions::defaultThreads();
+    if (threads > 1) {
+        pool_ = std::make_unique<ThreadPool>(threads);
+        collector_.setTaskRunner(pool_.get());
+        view_->tessellator().setTaskRunner(pool_.get());
+    }
     phase_clock_ = std::make_unique<PhaseClock>();
     view_->tessellator().setPhaseObserver(phase_clock_.get());
     thread_ = std::thread([this] { run(); });

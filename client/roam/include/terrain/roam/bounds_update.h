@@ -26,6 +26,7 @@
 #include <terrain/roam/lattice.h>
 #include <terrain/roam/stale_blocks.h>
 #include <terrain/roam/tile_vertex_arrays.h>
+#include <terrain/task_runner.h>
 #include <terrain/terrain.h>
 #include <terrain/world_spec.h>
 
@@ -131,7 +132,39 @@ class BoundsUpdate {
     /// Bytes of the kernel's scratch and the centres' cache.
     std::size_t memoryBytes() const;
 
+    /// drainStale's passes run on `runner` from now on (not owned; null: serially): squares of
+    /// cells in groups, one kernel per group; each block's bounds and heights are its square's
+    /// pass either way, the ids moved and the tiles' vertex marks are listed in the serial
+    /// order, so the state after is the same at any thread count.
+    void setTaskRunner(TaskRunner* runner) { runner_ = runner; }
+    /// drainStale passes spread over the runner so far.
+    std::int64_t parallelPasses() const { return parallel_passes_; }
+
   private:
+    /// What storing a pass writes besides each block's own state, per thread of a pass.
+    struct VertexMark {
+        std::int32_t tile = 0;
+        std::uint32_t begin = 0;
+        std::uint32_t end = 0; ///< == begin: the version bumped, nothing marked
+    };
+    struct PassScratch {
+        BlockBounds kernel;
+        std::array<std::int64_t, kBlockVertices> heights{};
+        std::vector<DetailBlocks::CellXY> cells;
+        std::vector<DiamondId> moved;
+        std::vector<VertexMark> marks; ///< for the owner's thread to make, in order
+    };
+    /// storePass off the owner's thread: into `scratch` (its kernel's i-th block).
+    void storePassTo(PassScratch& scratch, std::size_t i, std::int32_t block, unsigned grain_mask);
+    /// Stores `heights` into `block`'s resident grains in the mask; the tiles' vertex marks are
+    /// made at once, or listed in `marks`.
+    void storeHeightsFrom(
+        const std::array<std::int64_t, kBlockVertices>& heights,
+        std::int32_t block,
+        unsigned grain_mask,
+        std::vector<VertexMark>* marks);
+    void boundBlocksParallel(std::span<const std::int32_t> blocks);
+
     /// The largest cellCap and the vertex range (fine units) of the 3 x 3 cells around a cell,
     /// those of the padded grid: everything a diamond of that cell can refine into.
     struct WindowBound {
@@ -186,6 +219,11 @@ class BoundsUpdate {
     std::vector<DetailBlocks::CellXY> pass_cells_;
     std::vector<std::int32_t> pass_blocks_;
     std::array<std::int64_t, kBlockVertices> heights_{};
+    TaskRunner* runner_ = nullptr;
+    std::int64_t parallel_passes_ = 0;
+    std::vector<PassScratch> scratch_; ///< per group of a parallel pass
+    std::vector<std::size_t> square_ends_;
+    std::vector<std::size_t> group_ends_; ///< in squares
 };
 
 } // namespace terrain::roam

@@ -9,13 +9,14 @@
 // step of the last.
 //
 // Owns: the pending coverage per tile (index pages, vertex ranges, whether the list or array
-// was rebuilt) and a vertex builder. Takes the tessellator's changes (so it is the tessellator's
-// only reader: no renderer syncs from that tessellator). Pure, single-threaded: the thread that
-// updates the tessellator calls it.
+// was rebuilt) and vertex builders (one per group of tiles written at once). Takes the
+// tessellator's changes (so it is the tessellator's only reader: no renderer syncs from that
+// tessellator). Pure, single-threaded: the thread that updates the tessellator calls it.
 
 #include <terrain/roam/mesh_delta.h>
 #include <terrain/roam/tessellator.h>
 #include <terrain/roam/tile_vertex_builder.h>
+#include <terrain/task_runner.h>
 #include <terrain/terrain.h>
 
 #include <cstdint>
@@ -37,6 +38,10 @@ class DeltaCollector {
     void collect(Tessellator& tess, const Terrain& terrain, MeshDelta& out);
     /// Steps collected so far (the step of the last delta written).
     std::uint64_t step() const { return step_; }
+    /// The vertices and index pages are written on `runner` from now on (not owned; null:
+    /// serially). The bytes are the same at any thread count: each tile's contents go to the
+    /// places the serial layout gave them.
+    void setTaskRunner(TaskRunner* runner) { runner_ = runner; }
 
   private:
     struct Pending {
@@ -49,7 +54,15 @@ class DeltaCollector {
     };
 
     void takeChanges(Tessellator& tess, const WorldSpec& spec);
-    void write(Tessellator& tess, const Terrain& terrain, std::int32_t t, MeshDelta& out);
+    /// The tile's entry, pages and runs (where their contents go), appended to `out`.
+    void layout(const Tessellator& tess, std::int32_t t, MeshDelta& out);
+    /// The contents of the tile's pages and runs, at the places layout() gave them.
+    static void fill(
+        const Tessellator& tess,
+        const Terrain& terrain,
+        const MeshDelta::Tile& entry,
+        TileVertexBuilder& builder,
+        MeshDelta& out);
 
     std::vector<Pending> pending_;
     std::vector<std::int32_t> pending_tiles_; ///< tiles with pending changes, unordered
@@ -57,7 +70,9 @@ class DeltaCollector {
     bool new_tiles_ = true;
     WorldSpec spec_{};
     std::uint64_t step_ = 0;
-    TileVertexBuilder builder_;
+    TaskRunner* runner_ = nullptr;
+    std::vector<TileVertexBuilder> builders_; ///< one per group of tiles
+    std::vector<std::size_t> group_ends_;
 };
 
 } // namespace terrain::roam

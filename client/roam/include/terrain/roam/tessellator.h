@@ -25,7 +25,8 @@
 // (ARCHITECTURE.md draws them): DiamondSpace (per-id state and bounds), LatticeIds (lattice
 // points to ids, the map's measures), BlockPool (grains and eviction), BoundsUpdate (bounds
 // after an op), SplitMerge (the policy), TileEmitter (the tiles' lists and vertex arrays: what a
-// renderer reads). Pure: no GL, no clocks, no I/O. Single-threaded.
+// renderer reads). Pure: no GL, no clocks, no I/O. Single-threaded, but for the stale bounds
+// pass, which a caller's TaskRunner may spread (setTaskRunner).
 
 #include <terrain/roam/block_grains.h>
 #include <terrain/roam/block_pool.h>
@@ -87,6 +88,12 @@ class Tessellator {
     const TessellatorOptions& options() const { return options_; }
     /// Told as each pass of update() begins (timing at the edge; null: nobody). Not owned.
     void setPhaseObserver(UpdatePhaseObserver* observer) { phases_ = observer; }
+    /// The stale bounds pass runs on `runner` from now on (BoundsUpdate::setTaskRunner: the same
+    /// state at any thread count; null: serially). Not owned. The split/merge policy, one heap
+    /// over the map whose forced splits cross tiles, stays on the caller's thread.
+    void setTaskRunner(TaskRunner* runner) { bounds_.setTaskRunner(runner); }
+    /// Stale bounds passes spread over the runner since construction.
+    std::int64_t parallelBoundsPasses() const { return bounds_.parallelPasses(); }
 
     // the tiles, as the renderer reads them (tile_emitter.h, tile_vertex_arrays.h)
     std::int32_t tileCount() const { return emitter_.tileCount(); }

@@ -19,6 +19,7 @@
 #include <terrain/roam/delta_collector.h>
 #include <terrain/roam/drawn_mesh.h>
 #include <terrain/roam/frame_stats.h>
+#include <terrain/task_runner.h>
 
 #include <array>
 #include <atomic>
@@ -39,6 +40,12 @@ struct TessellationWorkerOptions {
     /// Keeps every step's WorkerStep for stepLog() (benchmarks: the deltas the frame thread
     /// never took count too).
     bool keep_step_log = false;
+    /// Threads a step may spread its independent work over (the worker's own included): the
+    /// stale bounds pass (per square of cells) and the delta's vertices and pages (per group of
+    /// tiles). 0: defaultThreads(). The meshes and deltas are the same at any count.
+    unsigned threads = 0;
+    /// min(hardware threads - 1, 4): one core left to the frame thread.
+    static unsigned defaultThreads();
 };
 
 /// What the worker did for the delta the frame thread holds.
@@ -96,6 +103,8 @@ class TessellationWorker {
     std::uint64_t lag() const { return posted_ - taken_.frame; }
     /// Every step so far, taken or not (with keep_step_log; empty otherwise).
     std::vector<WorkerStep> stepLog() const;
+    /// Threads a step runs on (options' threads, or the default).
+    unsigned threads() const { return pool_ ? pool_->threads() : 1u; }
 
   private:
     struct Slot {
@@ -148,6 +157,7 @@ class TessellationWorker {
     Replica world_;
     std::optional<TerrainView> view_;
     roam::DeltaCollector collector_;
+    std::unique_ptr<ThreadPool> pool_; ///< the step's helpers (none at one thread)
     bool published_ = false;
 
     std::thread thread_;
