@@ -199,6 +199,58 @@ TEST(MeshDelta, ACopyFedAnySubsequenceOfDeltasEqualsTheTessellatorAtTheLastOnesS
     EXPECT_EQ(difference(copy, tess, *now), "");
 }
 
+TEST(MeshDelta, WithASmallPoolBlocksComeAndGoAndTheCopyKeepsUp) {
+    // a pool of 48 blocks over a flight: blocks evicted and grains gone every frame (vertex
+    // versions that move with nothing to copy), every delta taken
+    Terrain t = world(23, 257);
+    roam::TessellatorOptions o;
+    o.max_detail_blocks = 48;
+    Tessellator tess(t, o);
+    roam::DeltaCollector collector;
+    MeshDelta delta;
+    DrawnMesh copy;
+    std::int64_t evicted = 0;
+    for (int f = 0; f < 30; ++f) {
+        const double x = 40.0 + f * 6.0;
+        const double y = 60.0 + f * 4.0;
+        const glm::dvec3 eye(x, y, surfaceHeight(t, x, y) + 5.0);
+        evicted += tess.update(camera(eye, eye + glm::dvec3(0.8, 0.6, -0.3))).blocks_evicted;
+        collector.delivered();
+        collector.collect(tess, t, delta);
+        ASSERT_TRUE(copy.apply(delta));
+        ASSERT_EQ(difference(copy, tess, t, f % 5 == 0), "") << "after step " << f + 1;
+    }
+    EXPECT_GT(evicted, 50);
+}
+
+TEST(MeshDelta, AMalformedDeltaIsRefusedWhole) {
+    const Terrain t = world(23, 257);
+    Tessellator tess(t, {});
+    roam::DeltaCollector collector;
+    MeshDelta delta;
+    DrawnMesh copy;
+    const glm::dvec3 eye(100.0, 100.0, surfaceHeight(t, 100.0, 100.0) + 8.0);
+    tess.update(camera(eye, eye + glm::dvec3(1.0, 0.3, -0.3)));
+    collector.collect(tess, t, delta);
+    ASSERT_FALSE(delta.tiles.empty());
+    ASSERT_FALSE(delta.pages.empty());
+    ASSERT_FALSE(delta.runs.empty());
+    const auto refused = [&](auto&& breakIt) {
+        MeshDelta bad = delta;
+        breakIt(bad);
+        DrawnMesh fresh;
+        return !fresh.apply(bad) && fresh.tileCount() == 0;
+    };
+    EXPECT_TRUE(refused([](MeshDelta& d) { d.tiles[0].tile = d.tile_count; }));
+    EXPECT_TRUE(refused([](MeshDelta& d) { d.pages[0] = 1u << 20; }));
+    EXPECT_TRUE(refused([](MeshDelta& d) { d.runs[0].end = d.tiles[0].vertex_count + 1; }));
+    EXPECT_TRUE(refused([](MeshDelta& d) { d.runs.back().at = d.vertices.size(); }));
+    EXPECT_TRUE(refused([](MeshDelta& d) { d.visible.pop_back(); }));
+    EXPECT_TRUE(refused([](MeshDelta& d) { d.page_indices.pop_back(); }));
+    EXPECT_TRUE(refused([](MeshDelta& d) { d.tiles[0].page_count += 1u << 20; }));
+    EXPECT_TRUE(copy.apply(delta)) << "the delta as written";
+}
+
 TEST(MeshDelta, ASettledViewHandsOverNothingButVisibility) {
     const Terrain t = world(23, 257);
     Tessellator tess(t, {});

@@ -137,6 +137,7 @@ TEST(TessellationWorker, InLockstepItDrawsWhatTheSynchronousPathDrawsFrameByFram
         EXPECT_EQ(worker.taken().frame, static_cast<std::uint64_t>(f + 1));
         EXPECT_EQ(worker.taken().seq, sync_replica.seq());
         EXPECT_EQ(worker.taken().world_hash, sync_replica.worldHash());
+        EXPECT_EQ(worker.taken().replay_failures, 0u);
         EXPECT_EQ(worker.taken().stats.triangles, sync.lastStats().triangles);
         upload_bound += worker.taken().stats.upload_budget_bound ? 1 : 0;
         EXPECT_EQ(worker.taken().threshold, sync.tessellator().threshold());
@@ -248,6 +249,11 @@ TEST(ReplicaChanges, ReplayedOnAnotherCopyTheyReachTheSameBitsAndTheSameDirtyCel
         EXPECT_EQ(a.all, b.all);
         EXPECT_EQ(a.tiles, b.tiles);
         ASSERT_EQ(a.cells.size(), b.cells.size());
+        for (std::size_t k = 0; k < a.cells.size(); ++k)
+            EXPECT_TRUE(
+                a.cells[k].x0 == b.cells[k].x0 && a.cells[k].y0 == b.cells[k].y0 &&
+                a.cells[k].x1 == b.cells[k].x1 && a.cells[k].y1 == b.cells[k].y1)
+                << "round " << round << ", rectangle " << k;
         // the corruption was not recorded, but the repair brings both to the server's state
         EXPECT_EQ(follower.worldHash(), recorded.worldHash());
     }

@@ -118,8 +118,11 @@ void DeltaCollector::collect(Tessellator& tess, const Terrain& terrain, MeshDelt
     out.tile_count = tess.tileCount();
     out.spec = terrain.spec();
     out.visible.resize(at(out.tile_count));
-    for (std::int32_t t = 0; t < out.tile_count; ++t)
+    out.versions.resize(at(out.tile_count));
+    for (std::int32_t t = 0; t < out.tile_count; ++t) {
         out.visible[at(t)] = tess.tileVisible(t) ? 1 : 0;
+        out.versions[at(t)] = tess.tileVertexVersion(t);
+    }
     // ascending tiles: a reader's work and the delta's layout follow the map, not the order of
     // the changes
     std::sort(pending_tiles_.begin(), pending_tiles_.end());

@@ -15,19 +15,48 @@ void DrawnMesh::markPage(TileCopy& copy, std::uint32_t page) {
     }
 }
 
+bool DrawnMesh::wellFormed(const MeshDelta& delta) {
+    if (delta.tile_count < 0 || delta.visible.size() != at(delta.tile_count) ||
+        delta.versions.size() != at(delta.tile_count) ||
+        delta.page_indices.size() != delta.pages.size() * MeshDelta::kPageIndices)
+        return false;
+    for (const MeshDelta::Tile& e : delta.tiles) {
+        if (e.tile < 0 || e.tile >= delta.tile_count ||
+            std::size_t{e.first_page} + e.page_count > delta.pages.size() ||
+            std::size_t{e.first_run} + e.run_count > delta.runs.size())
+            return false;
+        const std::uint32_t pages =
+            (e.slot_count + TileMesh::kSlotsPerPage - 1) / TileMesh::kSlotsPerPage;
+        for (std::uint32_t k = e.first_page; k < e.first_page + e.page_count; ++k)
+            if (delta.pages[k] >= pages)
+                return false;
+        for (std::uint32_t k = e.first_run; k < e.first_run + e.run_count; ++k) {
+            const MeshDelta::Run& r = delta.runs[k];
+            if (r.begin > r.end || r.end > e.vertex_count || r.at > delta.vertices.size() ||
+                r.end - r.begin > delta.vertices.size() - r.at)
+                return false;
+        }
+    }
+    return true;
+}
+
 bool DrawnMesh::apply(const MeshDelta& delta) {
     if (delta.step <= step_ && !delta.new_tiles)
         return false;
     // a delta for other tiles than the copy's must start them over (one was missed: a bug)
     if (!delta.new_tiles && delta.tile_count != tileCount())
         return false;
+    if (!wellFormed(delta))
+        return false;
     if (delta.new_tiles) {
         tiles_.assign(at(delta.tile_count), TileCopy{});
         spec_ = delta.spec;
     }
     step_ = delta.step;
-    for (std::int32_t t = 0; t < delta.tile_count && at(t) < tiles_.size(); ++t)
+    for (std::int32_t t = 0; t < delta.tile_count; ++t) {
         tiles_[at(t)].visible = delta.visible[at(t)] != 0;
+        tiles_[at(t)].version = delta.versions[at(t)];
+    }
     for (const MeshDelta::Tile& e : delta.tiles) {
         TileCopy& copy = tiles_[at(e.tile)];
         // the list: its new length, then the pages (a page cut by the end is padded in the delta)
@@ -53,7 +82,6 @@ bool DrawnMesh::apply(const MeshDelta& delta) {
         }
         // the array: its new size, then the runs
         copy.vertices.resize(e.vertex_count);
-        copy.version = e.vertex_version;
         if (e.vertices_reset) {
             copy.all_vertices = true;
             copy.vertex_changes.clear();

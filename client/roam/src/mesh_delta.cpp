@@ -7,6 +7,7 @@ void MeshDelta::clear() {
     new_tiles = false;
     tile_count = 0;
     visible.clear();
+    versions.clear();
     tiles.clear();
     pages.clear();
     page_indices.clear();
@@ -15,8 +16,8 @@ void MeshDelta::clear() {
 }
 
 std::size_t MeshDelta::memoryBytes() const {
-    return visible.capacity() + tiles.capacity() * sizeof(Tile) +
-           pages.capacity() * sizeof(std::uint32_t) +
+    return visible.capacity() + versions.capacity() * sizeof(std::uint32_t) +
+           tiles.capacity() * sizeof(Tile) + pages.capacity() * sizeof(std::uint32_t) +
            page_indices.capacity() * sizeof(std::uint32_t) + runs.capacity() * sizeof(Run) +
            vertices.capacity() * sizeof(DrawVertex);
 }

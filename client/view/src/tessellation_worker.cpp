@@ -46,7 +46,6 @@ TessellationWorker::TessellationWorker(Replica& replica, const TessellationWorke
     : options_(options), replica_(&replica) {
     // the worker's world: a copy of the replica's now, then the same changes as it
     world_.loadSnapshot(DecodedSnapshot{Terrain(replica.terrain()), replica.seq()});
-    replica.recordChanges(true);
     view_.emplace(world_, options.view);
     const unsigned threads =
         options.threads > 0 ? options.threads : TessellationWorkerOptions::defaultThreads();
@@ -57,7 +56,16 @@ TessellationWorker::TessellationWorker(Replica& replica, const TessellationWorke
     }
     phase_clock_ = std::make_unique<PhaseClock>();
     view_->tessellator().setPhaseObserver(phase_clock_.get());
-    thread_ = std::thread([this] { run(); });
+    // from here the replica's changes are the worker's: recorded for it, and its dirty set
+    // (the synchronous path's feed) dropped, every post
+    replica.takeDirty();
+    replica.recordChanges(true);
+    try {
+        thread_ = std::thread([this] { run(); });
+    } catch (...) {
+        replica.recordChanges(false);
+        throw;
+    }
 }
 
 TessellationWorker::~TessellationWorker() {
@@ -72,6 +80,7 @@ TessellationWorker::~TessellationWorker() {
 
 void TessellationWorker::post(const roam::Camera& camera, double frame_ms) {
     std::vector<ReplicaChange> changes = replica_->takeChanges();
+    (void)replica_->takeDirty(); // nobody reads it beside a worker: it would only grow
     const std::uint64_t frame = ++posted_;
     {
         std::lock_guard lock(in_mutex_);
@@ -128,6 +137,7 @@ std::vector<WorkerStep> TessellationWorker::stepLog() const {
 
 void TessellationWorker::run() {
     std::vector<ReplicaChange> changes;
+    std::uint64_t replay_failures = 0;
     std::uint64_t done = 0;
     std::uint64_t steps = 0;
     for (;;) {
@@ -156,9 +166,12 @@ void TessellationWorker::run() {
         // the same changes in the same order as the replica: the same bits (a failure there
         // fails here too, and the replica's owner resyncs it, which reaches us as a state)
         for (const ReplicaChange& change : changes) {
-            (void)world_.replay(change);
+            // it applied on the frame's replica, so it applies here: a failure is a bug, counted
+            if (!world_.replay(change) || world_.seq() != change.seq)
+                ++replay_failures;
             info.ops += change.kind == ReplicaChange::Kind::kOp ? 1 : 0;
         }
+        info.replay_failures = replay_failures;
         changes.clear();
         info.apply_ms = msSince(start);
         start = std::chrono::steady_clock::now();

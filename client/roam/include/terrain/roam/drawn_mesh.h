@@ -11,6 +11,7 @@
 // single-threaded (the frame thread's).
 
 #include <terrain/roam/mesh_delta.h>
+#include <terrain/roam/tile_mesh.h>
 #include <terrain/roam/tile_vertex_arrays.h>
 #include <terrain/roam/tile_vertex_builder.h>
 #include <terrain/world_spec.h>
@@ -25,7 +26,9 @@ namespace terrain::roam {
 class DrawnMesh {
   public:
     /// Brings the tiles to the delta's step. Refused (false, nothing changed): a delta not newer
-    /// than the copy, or one for another tile count that does not start the tiles over.
+    /// than the copy, one for another tile count that does not start the tiles over, or one
+    /// that does not hold together (a page past its list, a run past its array or the delta's
+    /// vertices, a tile past the count).
     bool apply(const MeshDelta& delta);
 
     /// The tessellation step the copy holds (0: none yet).
@@ -89,6 +92,7 @@ class DrawnMesh {
     };
     /// Marks a page written (once).
     static void markPage(TileCopy& copy, std::uint32_t page);
+    static bool wellFormed(const MeshDelta& delta);
 
     std::vector<TileCopy> tiles_;
     std::uint64_t step_ = 0;

@@ -47,8 +47,11 @@ struct MeshDelta {
     /// A new set of tiles (a new world, or the first delta): the reader starts every tile over.
     bool new_tiles = false;
     std::int32_t tile_count = 0;
-    WorldSpec spec{};                        ///< the world the tiles are of
-    std::vector<std::uint8_t> visible;       ///< per tile, 0 or 1
+    WorldSpec spec{};                  ///< the world the tiles are of
+    std::vector<std::uint8_t> visible; ///< per tile, 0 or 1
+    /// Per tile, Tessellator::tileVertexVersion: it also moves with nothing to copy (a grain
+    /// gone, a block evicted).
+    std::vector<std::uint32_t> versions;
     std::vector<Tile> tiles;                 ///< tiles with changes, ascending
     std::vector<std::uint32_t> pages;        ///< page numbers, per tile ascending
     std::vector<std::uint32_t> page_indices; ///< kPageIndices per entry of `pages`

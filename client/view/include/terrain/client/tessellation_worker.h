@@ -50,10 +50,13 @@ struct TessellationWorkerOptions {
 
 /// What the worker did for the delta the frame thread holds.
 struct WorkerStep {
-    std::uint64_t step = 0;         ///< the worker's steps so far (one per tessellation)
-    std::uint64_t frame = 0;        ///< the post whose camera it tessellated (1 = the first)
-    std::uint64_t seq = 0;          ///< the replica seq its world had reached
-    std::uint64_t ops = 0;          ///< ops the step applied (their craters are in its mesh)
+    std::uint64_t step = 0;  ///< the worker's steps so far (one per tessellation)
+    std::uint64_t frame = 0; ///< the post whose camera it tessellated (1 = the first)
+    std::uint64_t seq = 0;   ///< the replica seq its world had reached
+    std::uint64_t ops = 0;   ///< ops the step applied (their craters are in its mesh)
+    /// Changes the worker's world could not replay as the replica applied them, since the start
+    /// (0 unless something is broken: its world would differ from the frame's).
+    std::uint64_t replay_failures = 0;
     std::int64_t max_triangles = 0; ///< the cap the step ran under (the frame budget moves it)
     std::uint64_t world_hash = 0;
     double threshold = 0.0; ///< the tessellator's threshold after the step (pixels)
@@ -73,8 +76,9 @@ struct WorkerStep {
 class TessellationWorker {
   public:
     /// Copies the replica's world now and starts the worker on it; the replica records its
-    /// changes from now on (Replica::recordChanges), and post() hands them over. The replica must
-    /// outlive the worker and stay on the frame thread.
+    /// changes from now on (Replica::recordChanges), and post() hands them over (its dirty set
+    /// is dropped at each post: the worker keeps its own). The replica must outlive the worker
+    /// and stay on the frame thread; one worker per replica.
     TessellationWorker(Replica& replica, const TessellationWorkerOptions& options);
     /// Stops the worker (after the step it is in) and joins it.
     ~TessellationWorker();
