@@ -210,7 +210,12 @@ TEST(GoldenMesh, TheBattleHasTheRecordedMeshesWithItsBoundsOnTwoAndFourThreads) 
         if (text.rfind("battle ", 0) == 0)
             expected.push_back(text);
     ASSERT_EQ(expected.size(), 40u);
-    for (const unsigned threads : {2u, 4u}) {
+#if defined(__SANITIZE_ADDRESS__)
+    const std::vector<unsigned> counts{3u}; // five times slower: one count, groups uneven
+#else
+    const std::vector<unsigned> counts{2u, 4u};
+#endif
+    for (const unsigned threads : counts) {
         ThreadPool pool(threads);
         std::vector<FrameHash> got;
         std::int64_t parallel = 0;
