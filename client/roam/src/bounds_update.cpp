@@ -345,26 +345,16 @@ void BoundsUpdate::boundBlocks(std::span<const std::int32_t> blocks, PassListene
 
 void BoundsUpdate::boundBlocks(
     std::span<const std::int32_t> blocks, bool collect, PassListener* listener) {
-    // one BlockBounds pass per square of cells, so that a pass's scratch stays small however
-    // scattered the blocks are (a pass spans its cells' bounding box)
-    constexpr std::int32_t kSquare = 16;
-    pass_blocks_.assign(blocks.begin(), blocks.end());
-    const auto square = [&](std::int32_t b) {
-        const DetailBlocks::CellXY c = blocks_.cellOf(b);
-        return std::pair{c.y / kSquare, c.x / kSquare};
-    };
-    std::sort(pass_blocks_.begin(), pass_blocks_.end(), [&](std::int32_t a, std::int32_t b) {
-        return std::pair{square(a), a} < std::pair{square(b), b};
-    });
+    sortIntoSquares(blocks);
     const BlockGeometry geometry{
         metres_per_fine_, grid_w_, grid_h_, spec_.cellsX(), spec_.cellsY()};
     bounded_cell_ = {}; // the scratch no longer holds a single block's pass
-    for (std::size_t first = 0; first < pass_blocks_.size();) {
-        std::size_t last = first;
+    for (std::size_t q = 0; q < square_ends_.size(); ++q) {
+        const std::size_t first = q == 0 ? 0 : square_ends_[q - 1];
+        const std::size_t last = square_ends_[q];
         pass_cells_.clear();
-        while (last < pass_blocks_.size() &&
-               square(pass_blocks_[last]) == square(pass_blocks_[first]))
-            pass_cells_.push_back(blocks_.cellOf(pass_blocks_[last++]));
+        for (std::size_t i = first; i < last; ++i)
+            pass_cells_.push_back(blocks_.cellOf(pass_blocks_[i]));
         kernel_.compute(*terrain_, blocks_, geometry, pass_cells_);
         for (std::size_t i = first; i < last; ++i) {
             const std::int32_t b = pass_blocks_[i];
@@ -376,8 +366,25 @@ void BoundsUpdate::boundBlocks(
             if (listener != nullptr)
                 listener->bounded(i - first, b);
         }
-        first = last;
     }
+}
+
+void BoundsUpdate::sortIntoSquares(std::span<const std::int32_t> blocks) {
+    // one BlockBounds pass per square of cells, so that a pass's scratch stays small however
+    // scattered the blocks are (a pass spans its cells' bounding box)
+    constexpr std::int32_t kSquare = 16;
+    pass_blocks_.assign(blocks.begin(), blocks.end());
+    const auto square = [&](std::int32_t b) {
+        const DetailBlocks::CellXY c = blocks_.cellOf(b);
+        return std::pair{c.y / kSquare, c.x / kSquare};
+    };
+    std::sort(pass_blocks_.begin(), pass_blocks_.end(), [&](std::int32_t a, std::int32_t b) {
+        return std::pair{square(a), a} < std::pair{square(b), b};
+    });
+    square_ends_.clear();
+    for (std::size_t i = 1; i <= pass_blocks_.size(); ++i)
+        if (i == pass_blocks_.size() || square(pass_blocks_[i]) != square(pass_blocks_[i - 1]))
+            square_ends_.push_back(i);
 }
 
 void BoundsUpdate::storeGrains(std::size_t i, std::int32_t block, unsigned grain_mask) {
@@ -385,9 +392,20 @@ void BoundsUpdate::storeGrains(std::size_t i, std::int32_t block, unsigned grain
 }
 
 void BoundsUpdate::storePass(std::size_t i, std::int32_t block, unsigned grain_mask, bool collect) {
+    storePassFrom(kernel_, heights_, i, block, grain_mask, collect ? &moved_ : nullptr, nullptr);
+}
+
+void BoundsUpdate::storePassFrom(
+    const BlockBounds& kernel,
+    std::array<std::int64_t, kBlockVertices>& heights,
+    std::size_t i,
+    std::int32_t block,
+    unsigned grain_mask,
+    std::vector<DiamondId>* moved,
+    std::vector<VertexMark>* marks) {
     const GrainTables& tables = grainTables();
-    kernel_.heights(i, heights_);
-    storeHeights(block, grain_mask);
+    kernel.heights(i, heights);
+    storeHeightsFrom(heights, block, grain_mask, marks);
     for (int g = 0; g < kGrains; ++g) {
         if ((grain_mask & (1u << g)) == 0)
             continue;
@@ -398,8 +416,8 @@ void BoundsUpdate::storePass(std::size_t i, std::int32_t block, unsigned grain_m
             if (g == 0 && (local == 0 || local == kCentreLocal * kLatticePerCell + kCentreLocal))
                 continue; // the grid vertex and the (eager) centre
             const DiamondId id = DiamondSpace::pooledId(g, chunk, static_cast<std::uint32_t>(slot));
-            if (space_.storeBounds(id, kernel_.bounds(i, local)) && collect)
-                moved_.push_back(id);
+            if (space_.storeBounds(id, kernel.bounds(i, local)) && moved != nullptr)
+                moved->push_back(id);
         }
     }
 }
@@ -453,44 +471,11 @@ void BoundsUpdate::storeHeightsFrom(
     }
 }
 
-void BoundsUpdate::storePassTo(
-    PassScratch& scratch, std::size_t i, std::int32_t block, unsigned grain_mask) {
-    const GrainTables& tables = grainTables();
-    scratch.kernel.heights(i, scratch.heights);
-    storeHeightsFrom(scratch.heights, block, grain_mask, &scratch.marks);
-    for (int g = 0; g < kGrains; ++g) {
-        if ((grain_mask & (1u << g)) == 0)
-            continue;
-        const std::int32_t chunk = pool_.chunkOf(block, g);
-        const auto diamonds = static_cast<std::size_t>(kGrainDiamonds[static_cast<std::size_t>(g)]);
-        for (std::size_t slot = 0; slot < diamonds; ++slot) {
-            const std::uint8_t local = tables.diamond_local[static_cast<std::size_t>(g)][slot];
-            if (g == 0 && (local == 0 || local == kCentreLocal * kLatticePerCell + kCentreLocal))
-                continue; // the grid vertex and the (eager) centre
-            const DiamondId id = DiamondSpace::pooledId(g, chunk, static_cast<std::uint32_t>(slot));
-            if (space_.storeBounds(id, scratch.kernel.bounds(i, local)))
-                scratch.moved.push_back(id);
-        }
-    }
-}
-
 void BoundsUpdate::boundBlocksParallel(std::span<const std::int32_t> blocks) {
     // the serial pass's order and squares (boundBlocks), the squares in groups of consecutive
     // ones, each group on one thread with its own kernel; each block's state is its own, the
     // rest is listed per group and made here in the groups' order: the serial order
-    constexpr std::int32_t kSquare = 16;
-    pass_blocks_.assign(blocks.begin(), blocks.end());
-    const auto square = [&](std::int32_t b) {
-        const DetailBlocks::CellXY c = blocks_.cellOf(b);
-        return std::pair{c.y / kSquare, c.x / kSquare};
-    };
-    std::sort(pass_blocks_.begin(), pass_blocks_.end(), [&](std::int32_t a, std::int32_t b) {
-        return std::pair{square(a), a} < std::pair{square(b), b};
-    });
-    square_ends_.clear();
-    for (std::size_t i = 1; i <= pass_blocks_.size(); ++i)
-        if (i == pass_blocks_.size() || square(pass_blocks_[i]) != square(pass_blocks_[i - 1]))
-            square_ends_.push_back(i);
+    sortIntoSquares(blocks);
     const std::size_t groups = std::min<std::size_t>(runner_->threads(), square_ends_.size());
     if (scratch_.size() < groups)
         scratch_.resize(groups);
@@ -520,7 +505,9 @@ void BoundsUpdate::boundBlocksParallel(std::span<const std::int32_t> blocks) {
                 for (int g = 0; g < kGrains; ++g)
                     if (pool_.chunkOf(b, g) >= 0)
                         mask |= 1u << g;
-                storePassTo(scratch, i - first, b, mask);
+                storePassFrom(
+                    scratch.kernel, scratch.heights, i - first, b, mask, &scratch.moved,
+                    &scratch.marks);
             }
         }
     });

@@ -154,8 +154,18 @@ class BoundsUpdate {
         std::vector<DiamondId> moved;
         std::vector<VertexMark> marks; ///< for the owner's thread to make, in order
     };
-    /// storePass off the owner's thread: into `scratch` (its kernel's i-th block).
-    void storePassTo(PassScratch& scratch, std::size_t i, std::int32_t block, unsigned grain_mask);
+    /// Stores `kernel`'s i-th block (its heights through `heights`): the ids whose bounds moved
+    /// into `moved` (if given), the tiles' vertex marks made at once or listed in `marks`.
+    void storePassFrom(
+        const BlockBounds& kernel,
+        std::array<std::int64_t, kBlockVertices>& heights,
+        std::size_t i,
+        std::int32_t block,
+        unsigned grain_mask,
+        std::vector<DiamondId>* moved,
+        std::vector<VertexMark>* marks);
+    /// `blocks` into pass_blocks_, sorted by square of cells (then id), and square_ends_.
+    void sortIntoSquares(std::span<const std::int32_t> blocks);
     /// Stores `heights` into `block`'s resident grains in the mask; the tiles' vertex marks are
     /// made at once, or listed in `marks`.
     void storeHeightsFrom(
@@ -221,9 +231,9 @@ class BoundsUpdate {
     std::array<std::int64_t, kBlockVertices> heights_{};
     TaskRunner* runner_ = nullptr;
     std::int64_t parallel_passes_ = 0;
-    std::vector<PassScratch> scratch_; ///< per group of a parallel pass
-    std::vector<std::size_t> square_ends_;
-    std::vector<std::size_t> group_ends_; ///< in squares
+    std::vector<PassScratch> scratch_;     ///< per group of a parallel pass
+    std::vector<std::size_t> square_ends_; ///< pass_blocks_' squares, each's end
+    std::vector<std::size_t> group_ends_;  ///< in squares
 };
 
 } // namespace terrain::roam
