@@ -273,6 +273,57 @@ struct Tally {
     bool hashes_agree = true;
 };
 
+/// The ops as a client receives them: one a frame, a burst every --burst-every frames, applied
+/// to the replica paced as the bot and the viewer pace them (client/op_pacing.h).
+struct OpFeed {
+    struct Frame {
+        int arriving = 0;         ///< ops that arrived this frame
+        std::size_t applying = 0; ///< ops applied this frame
+        double apply_ms = 0.0;
+    };
+
+    OpFeed(const Settings& s, const std::vector<SentOp>& ops)
+        : settings(&s), sent(&ops), pacer(s.pacing) {}
+    /// More to fly: ops not yet applied, or frames short of --frames.
+    bool flying(int f) const { return next < sent->size() || f <= settings->min_frames; }
+    /// Frame f's arrivals, and the ops it applies to `replica`, timed.
+    Frame frame(int f, client::Replica& replica) {
+        Frame out;
+        const std::size_t received = next + arrived_at.size();
+        out.arriving =
+            received >= sent->size() ? 0
+            : f % settings->burst_every == 0
+                ? static_cast<int>(std::min<std::size_t>(
+                      static_cast<std::size_t>(settings->burst), sent->size() - received))
+                : 1;
+        for (int k = 0; k < out.arriving; ++k)
+            arrived_at.push_back(f);
+        // the client's pacing: a burst waits for the next frames
+        out.applying = pacer.take(arrived_at.size());
+        const auto t0 = bench::Clock::now();
+        for (std::size_t k = 0; k < out.applying; ++k, ++next) {
+            auto outcome = replica.applyOp(++seq, (*sent)[next].op, (*sent)[next].world_hash);
+            if (!outcome || *outcome != client::Replica::OpOutcome::kApplied)
+                hashes_agree = false;
+        }
+        out.apply_ms = bench::msSince(t0);
+        for (std::size_t k = 0; k < out.applying; ++k) {
+            max_delay_frames = std::max(max_delay_frames, f - arrived_at.front());
+            arrived_at.pop_front();
+        }
+        return out;
+    }
+
+    const Settings* settings;
+    const std::vector<SentOp>* sent;
+    client::OpPacer pacer;
+    std::deque<int> arrived_at; ///< the frame each waiting op arrived in
+    std::size_t next = 0;
+    std::uint64_t seq = 0;
+    int max_delay_frames = 0;
+    bool hashes_agree = true;
+};
+
 /// The flight: ops arrive (one a frame, a burst every --burst-every frames), are applied paced,
 /// fed to the tessellator, and the frame is tessellated (and drawn) for the flight's camera.
 Tally fly(
@@ -286,33 +337,9 @@ Tally fly(
     budget_options.target_ms = s.frame_target_ms;
     budget_options.max_triangles = s.max_triangles;
     client::FrameBudget budget(budget_options);
-    const std::vector<SentOp>& sent = battle.sent;
-    std::deque<int> arrived_at; // the frame each waiting op arrived in
-    client::OpPacer pacer(s.pacing);
-    std::size_t next = 0;
-    std::uint64_t seq = 0;
-    for (int f = 1; next < sent.size() || f <= s.min_frames; ++f) {
-        const std::size_t received = next + arrived_at.size();
-        const int arriving = received >= sent.size() ? 0
-                             : f % s.burst_every == 0
-                                 ? static_cast<int>(std::min<std::size_t>(
-                                       static_cast<std::size_t>(s.burst), sent.size() - received))
-                                 : 1;
-        for (int k = 0; k < arriving; ++k)
-            arrived_at.push_back(f);
-        // the client's pacing: a s.burst waits for the next frames (client/op_pacing.h)
-        const std::size_t applying = pacer.take(arrived_at.size());
-        const auto t0 = bench::Clock::now();
-        for (std::size_t k = 0; k < applying; ++k, ++next) {
-            auto outcome = replica.applyOp(++seq, sent[next].op, sent[next].world_hash);
-            if (!outcome || *outcome != client::Replica::OpOutcome::kApplied)
-                t.hashes_agree = false;
-        }
-        const double apply_ms = bench::msSince(t0);
-        for (std::size_t k = 0; k < applying; ++k) {
-            t.max_delay_frames = std::max(t.max_delay_frames, f - arrived_at.front());
-            arrived_at.pop_front();
-        }
+    OpFeed feed(s, battle.sent);
+    for (int f = 1; feed.flying(f); ++f) {
+        const auto [arriving, applying, apply_ms] = feed.frame(f, replica);
         const auto t1 = bench::Clock::now();
         const client::SurfaceChanges changes =
             client::surfaceChanges(replica.takeDirty(), replica.terrain().spec());
@@ -360,8 +387,8 @@ Tally fly(
             t.quiet_total.push_back(total); // no op applied: the s.flight alone
         }
     }
-    if (replica.worldHash() != battle.final_hash)
-        t.hashes_agree = false;
+    t.max_delay_frames = feed.max_delay_frames;
+    t.hashes_agree = feed.hashes_agree && replica.worldHash() == battle.final_hash;
     return t;
 }
 
@@ -389,40 +416,17 @@ AsyncTally flyAsync(
     Renderer& renderer) {
     AsyncTally t;
     roam::DrawnMesh mesh;
-    const std::vector<SentOp>& sent = battle.sent;
-    std::deque<int> arrived_at;
-    client::OpPacer pacer(s.pacing);
-    std::size_t next = 0;
-    std::uint64_t seq = 0;
+    OpFeed feed(s, battle.sent);
     const auto period = std::chrono::duration_cast<bench::Clock::duration>(
         std::chrono::duration<double>(1.0 / s.fps));
     auto deadline = bench::Clock::now();
     double last_frame_ms = 0.0;
-    for (int f = 1; next < sent.size() || f <= s.min_frames; ++f) {
+    for (int f = 1; feed.flying(f); ++f) {
         deadline += period;
         const auto started = bench::Clock::now();
         t.late_ms.push_back(std::max(
             0.0, std::chrono::duration<double, std::milli>(started - (deadline - period)).count()));
-        const std::size_t received = next + arrived_at.size();
-        const int arriving = received >= sent.size() ? 0
-                             : f % s.burst_every == 0
-                                 ? static_cast<int>(std::min<std::size_t>(
-                                       static_cast<std::size_t>(s.burst), sent.size() - received))
-                                 : 1;
-        for (int k = 0; k < arriving; ++k)
-            arrived_at.push_back(f);
-        const std::size_t applying = pacer.take(arrived_at.size());
-        const auto t0 = bench::Clock::now();
-        for (std::size_t k = 0; k < applying; ++k, ++next) {
-            auto outcome = replica.applyOp(++seq, sent[next].op, sent[next].world_hash);
-            if (!outcome || *outcome != client::Replica::OpOutcome::kApplied)
-                t.hashes_agree = false;
-        }
-        const double apply_ms = bench::msSince(t0);
-        for (std::size_t k = 0; k < applying; ++k) {
-            t.max_delay_frames = std::max(t.max_delay_frames, f - arrived_at.front());
-            arrived_at.pop_front();
-        }
+        const auto [arriving, applying, apply_ms] = feed.frame(f, replica);
         const roam::Camera camera =
             flightCamera(s.flight, f, replica.terrain(), battle.options, s.width, s.height);
         const auto t1 = bench::Clock::now();
@@ -457,7 +461,9 @@ AsyncTally flyAsync(
             std::this_thread::sleep_until(deadline);
     }
     // the worker's view of the same world: its last step has every op
-    for (int k = 0; k < 1000 && worker.taken().seq < seq; ++k) {
+    t.max_delay_frames = feed.max_delay_frames;
+    t.hashes_agree = feed.hashes_agree;
+    for (int k = 0; k < 1000 && worker.taken().seq < feed.seq; ++k) {
         worker.post(flightCamera(
             s.flight, static_cast<int>(t.frame_thread.size()), replica.terrain(), battle.options,
             s.width, s.height));
