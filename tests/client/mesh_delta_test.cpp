@@ -5,6 +5,7 @@
 // visibility), and a renderer that follows the copy's change marks holds the same bytes.
 
 #include "support/drawn_mesh_checks.h"
+#include "support/golden_shots.h"
 #include "support/terrain_builders.h"
 
 #include <terrain/roam/delta_collector.h>
@@ -113,27 +114,6 @@ struct FakeRenderer {
     }
 };
 
-/// Fires two craters ahead of (x, y), as the golden battle does; tells `tess`.
-void shoot(Terrain& t, Tessellator& tess, std::mt19937_64& rng, double x, double y) {
-    std::uniform_real_distribution<double> unit(0.0, 1.0);
-    for (int shot = 0; shot < 2; ++shot) {
-        const double ahead = 15.0 + 25.0 * unit(rng);
-        const double side = (unit(rng) - 0.5) * 20.0;
-        OpRequest r;
-        r.x = x + ahead * 0.9 - side * 0.45;
-        r.y = y + ahead * 0.45 + side * 0.9;
-        r.radius = 1.0 + 4.0 * unit(rng);
-        r.height = 0.4 * r.radius;
-        r.strength = 0.3 + 0.5 * unit(rng);
-        auto op = quantizeOp(r, t.spec());
-        if (!op)
-            continue;
-        auto effect = t.apply(*op);
-        if (effect)
-            tess.terrainChanged(std::span<const CellRect>(&effect->cells, 1), false);
-    }
-}
-
 TEST(MeshDelta, ACopyFedAnySubsequenceOfDeltasEqualsTheTessellatorAtTheLastOnesStep) {
     Terrain t = world(23, 257);
     Terrain other = world(5, 321); // 5 x 5 tiles: a new world mid-flight
@@ -174,7 +154,7 @@ TEST(MeshDelta, ACopyFedAnySubsequenceOfDeltasEqualsTheTessellatorAtTheLastOnesS
             tess.rebind(other);
         }
         if (f < 25 || f >= 40)
-            shoot(*now, tess, rng, x, y);
+            shootAhead(*now, tess, rng, x, y);
         const glm::dvec3 eye(x, y, surfaceHeight(*now, x, y) + 6.0);
         tess.update(camera(eye, eye + glm::dvec3(std::cos(yaw), std::sin(yaw), -0.25)));
         collector.collect(tess, *now, delta);

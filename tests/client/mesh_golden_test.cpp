@@ -8,6 +8,7 @@
 //   TERRAIN_REGENERATE_GOLDEN_MESH=1 ./build/release/tests/roam_tests
 //       --gtest_filter=GoldenMesh.Regenerate
 
+#include "support/golden_shots.h"
 #include "support/terrain_builders.h"
 
 #include <terrain/roam/tessellator.h>
@@ -110,27 +111,10 @@ void flyBattle(
     Tessellator tess(t, {});
     tess.setTaskRunner(runner);
     std::mt19937_64 rng(7);
-    std::uniform_real_distribution<double> unit(0.0, 1.0);
     for (int f = 0; f < frames; ++f) {
         const double x = 30.0 + f * 4.5;
         const double y = 70.0 + f * 2.0;
-        // two shots a frame, 15-40 m ahead of a camera 6 m up
-        for (int shot = 0; shot < 2; ++shot) {
-            const double ahead = 15.0 + 25.0 * unit(rng);
-            const double side = (unit(rng) - 0.5) * 20.0;
-            OpRequest r;
-            r.x = x + ahead * 0.9 - side * 0.45;
-            r.y = y + ahead * 0.45 + side * 0.9;
-            r.radius = 1.0 + 4.0 * unit(rng);
-            r.height = 0.4 * r.radius;
-            r.strength = 0.3 + 0.5 * unit(rng);
-            auto op = quantizeOp(r, t.spec());
-            if (!op)
-                continue; // off the map
-            auto effect = t.apply(*op);
-            if (effect)
-                tess.terrainChanged(std::span<const CellRect>(&effect->cells, 1), false);
-        }
+        shootAhead(t, tess, rng, x, y); // two shots a frame, 15-40 m ahead of a camera 6 m up
         const glm::dvec3 eye(x, y, surfaceHeight(t, x, y) + 6.0);
         tess.update(camera(eye, eye + glm::dvec3(0.9, 0.45, -0.25)));
         out.push_back({"battle", f, meshHash(tess), tess.triangleCount()});
