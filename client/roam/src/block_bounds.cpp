@@ -327,9 +327,12 @@ void BlockBounds::compute(
         }
     bounds_.assign(bound_cells_.size() * kCellDiamonds, DiamondBounds{});
     caps_.assign(bound_cells_.size() * kCellDiamonds, 0.0f);
+    frames_.clear();
+    for (const auto& c : bound_cells_)
+        frames_.push_back(frameOf(c.x, c.y));
     for (int level = kMaxDiamondLevel; level > kCellTriangleLevel; --level)
-        for (const auto& c : bound_cells_)
-            boundCell(c.x, c.y, level);
+        for (const CellFrame& f : frames_)
+            boundLevel(f, level);
     for (const auto& c : cells) {
         const std::int32_t slot = bound_slot_[static_cast<std::size_t>(regionIndex(c.x, c.y))];
         TERRAIN_ASSERT(slot >= 0); // a target must be a detail cell
@@ -337,61 +340,81 @@ void BlockBounds::compute(
     }
 }
 
-void BlockBounds::boundCell(std::int32_t cx, std::int32_t cy, int level) {
+BlockBounds::CellFrame BlockBounds::frameOf(std::int32_t cx, std::int32_t cy) const {
     const BlockGeometry& g = geometry_;
     const double mpf = g.metres_per_fine;
-    const std::int32_t max_x = (g.grid_w - 1) * kLatticePerCell;
-    const std::int32_t max_y = (g.grid_h - 1) * kLatticePerCell;
-    const std::int32_t ox = cx * kLatticePerCell;
-    const std::int32_t oy = cy * kLatticePerCell;
-    const std::int32_t region = regionIndex(cx, cy);
-    const Mask& needed = needed_[static_cast<std::size_t>(region)];
-    const auto slot = static_cast<std::size_t>(bound_slot_[static_cast<std::size_t>(region)]);
-    // the 3 x 3 around: the heights as the mesh's rules read them, and the bounds
-    std::array<const std::int64_t*, 9> heights{};
-    std::array<std::int32_t, 9> bounds{};
-    std::array<float, 9> caps{};
+    CellFrame f;
+    f.cx = cx;
+    f.cy = cy;
+    const auto region = static_cast<std::size_t>(regionIndex(cx, cy));
+    f.needed = &needed_[region];
+    const auto slot = static_cast<std::size_t>(bound_slot_[region]);
+    f.own_raw = heights_.data() + static_cast<std::size_t>(height_slot_[region]) * kBlockVertices;
+    f.own_bounds = slot * kCellDiamonds;
+    // the 3 x 3 around: the heights as the mesh's rules read them, the bounds, the caps and the
+    // finest triangles' errors
     for (std::int32_t dy = -1; dy <= 1; ++dy)
         for (std::int32_t dx = -1; dx <= 1; ++dx) {
             const std::size_t n = static_cast<std::size_t>(cellIndex(dx, dy));
             const std::int32_t x = cx + dx;
             const std::int32_t y = cy + dy;
-            heights[n] = nullptr;
-            bounds[n] = -1;
+            const std::int32_t r = records_->recordOf(x, y);
+            f.finest[n] = r < 0 ? 0.0 : static_cast<double>(records_->finestError(r)) * mpf;
             if (x >= rx0_ && y >= ry0_ && x < rx0_ + rw_ && y < ry0_ + rh_) {
                 const auto at = static_cast<std::size_t>(regionIndex(x, y));
-                if (const std::int32_t r = ruled_slot_[at]; r >= 0)
-                    heights[n] = ruled_.data() + static_cast<std::size_t>(r) * kBlockVertices;
+                if (const std::int32_t rs = ruled_slot_[at]; rs >= 0)
+                    f.heights[n] = ruled_.data() + static_cast<std::size_t>(rs) * kBlockVertices;
                 else if (const std::int32_t h = height_slot_[at]; h >= 0)
-                    heights[n] = heights_.data() + static_cast<std::size_t>(h) * kBlockVertices;
-                bounds[n] = bound_slot_[at];
-                caps[n] = cell_caps_[at];
+                    f.heights[n] = heights_.data() + static_cast<std::size_t>(h) * kBlockVertices;
+                f.bounds[n] = bound_slot_[at];
+                f.caps[n] = cell_caps_[at];
             } else {
-                const std::int32_t r = records_->recordOf(x, y);
-                caps[n] = r < 0 ? 0.0f : roundUp(static_cast<double>(records_->cellError(r)) * mpf);
+                f.caps[n] =
+                    r < 0 ? 0.0f : roundUp(static_cast<double>(records_->cellError(r)) * mpf);
             }
         }
-    const std::int64_t* own_raw =
-        heights_.data() +
-        static_cast<std::size_t>(height_slot_[static_cast<std::size_t>(region)]) * kBlockVertices;
-    // a cell of the padded grid (not a virtual one past it)
-    const bool inner = cx <= g.grid_w - 2 && cy <= g.grid_h - 2;
-    DiamondBounds* own_bounds = bounds_.data() + slot * kCellDiamonds;
-    float* own_caps = caps_.data() + slot * kCellDiamonds;
     // a cell whose every neighbour's points are on the map needs no map checks
-    const bool clear = cx >= 1 && cy >= 1 && cx <= g.grid_w - 3 && cy <= g.grid_h - 3;
+    f.clear = cx >= 1 && cy >= 1 && cx <= g.grid_w - 3 && cy <= g.grid_h - 3;
+    // a cell of the padded grid (not a virtual one past it)
+    f.inner = cx <= g.grid_w - 2 && cy <= g.grid_h - 2;
+    return f;
+}
+
+void BlockBounds::boundLevel(const CellFrame& f, int level) {
+    if (f.clear)
+        boundLevelOf<true>(f, level);
+    else
+        boundLevelOf<false>(f, level);
+}
+
+template <bool kClear> void BlockBounds::boundLevelOf(const CellFrame& f, int level) {
+    const BlockGeometry& g = geometry_;
+    const double mpf = g.metres_per_fine;
+    const std::int32_t max_x = (g.grid_w - 1) * kLatticePerCell;
+    const std::int32_t max_y = (g.grid_h - 1) * kLatticePerCell;
+    const std::int32_t ox = f.cx * kLatticePerCell;
+    const std::int32_t oy = f.cy * kLatticePerCell;
+    const Mask& needed = *f.needed;
+    const std::int64_t* own_raw = f.own_raw;
+    DiamondBounds* own_bounds = bounds_.data() + f.own_bounds;
+    float* own_caps = caps_.data() + f.own_bounds;
     const auto inside = [&](Offset q) {
-        const std::int32_t x = ox + q[0];
-        const std::int32_t y = oy + q[1];
-        return clear || (x >= 0 && y >= 0 && x <= max_x && y <= max_y);
+        if constexpr (kClear) {
+            return true;
+        } else {
+            const std::int32_t x = ox + q[0];
+            const std::int32_t y = oy + q[1];
+            return x >= 0 && y >= 0 && x <= max_x && y <= max_y;
+        }
     };
     const auto height = [&](const VertexRef& v) {
-        TERRAIN_ASSERT(heights[v.cell] != nullptr);
-        return heights[v.cell][v.index];
+        TERRAIN_ASSERT(f.heights[v.cell] != nullptr);
+        return f.heights[v.cell][v.index];
     };
-    const float cap = caps[kOwnCell];
-    const float cap_left = std::max(cap, caps[static_cast<std::size_t>(cellIndex(-1, 0))]);
-    const float cap_below = std::max(cap, caps[static_cast<std::size_t>(cellIndex(0, -1))]);
+    const float cap = f.caps[kOwnCell];
+    const float cap_left = std::max(cap, f.caps[static_cast<std::size_t>(cellIndex(-1, 0))]);
+    const float cap_below = std::max(cap, f.caps[static_cast<std::size_t>(cellIndex(0, -1))]);
+    const bool inner = kClear || f.inner;
     for (const LocalDiamond& d : tables().by_level[static_cast<std::size_t>(level)]) {
         if (!test(needed, d.local))
             continue; // no target's bound depends on it
@@ -425,29 +448,29 @@ void BlockBounds::boundCell(std::int32_t cx, std::int32_t cy, int level) {
         double lo = kInfinity;
         double hi = -kInfinity;
         if (level == kMaxDiamondLevel) {
-            for (std::size_t i = 0; i < 2; ++i) {
-                if (!inside(d.apexes[i].at))
-                    continue;
-                const std::int32_t n = d.finest_cells[i];
-                const std::int32_t r = records_->recordOf(cx + n % 3 - 1, cy + n / 3 - 1);
-                if (r >= 0)
-                    child = std::max(child, static_cast<double>(records_->finestError(r)) * mpf);
-            }
+            for (std::size_t i = 0; i < 2; ++i)
+                if (inside(d.apexes[i].at))
+                    child = std::max(child, f.finest[d.finest_cells[i]]);
         } else {
+            // the children's bounds in floats: min and max are exact, so this is the same as
+            // taking them in doubles
+            float kid_lo = std::numeric_limits<float>::infinity();
+            float kid_hi = -std::numeric_limits<float>::infinity();
+            float kid_delta = 0.0f;
             for (const ChildRef& c : d.kids) {
                 if (!inside(c.at))
                     continue;
-                if (const std::int32_t s = bounds[c.cell]; s >= 0) {
+                if (const std::int32_t s = f.bounds[c.cell]; s >= 0) {
                     const std::size_t at = static_cast<std::size_t>(s) * kCellDiamonds + c.local;
                     const DiamondBounds& b = bounds_[at];
-                    lo = std::min(lo, static_cast<double>(b.zlo));
-                    hi = std::max(hi, static_cast<double>(b.zhi));
+                    kid_lo = std::min(kid_lo, b.zlo);
+                    kid_hi = std::max(kid_hi, b.zhi);
                     nested_cap = std::max(nested_cap, caps_[at]);
-                    child = std::max(child, static_cast<double>(b.delta));
+                    kid_delta = std::max(kid_delta, b.delta);
                     continue;
                 }
                 // a cell without a record: drawn with its base triangles, which are the surface
-                nested_cap = std::max(nested_cap, caps[c.cell]);
+                nested_cap = std::max(nested_cap, f.caps[c.cell]);
                 for (std::size_t j = 0; j < c.corners.size(); ++j) {
                     if (j >= 2 && !inside(c.corners[j].at))
                         continue; // an apex off the map
@@ -456,6 +479,9 @@ void BlockBounds::boundCell(std::int32_t cx, std::int32_t cy, int level) {
                     hi = std::max(hi, z);
                 }
             }
+            lo = std::min(lo, static_cast<double>(kid_lo));
+            hi = std::max(hi, static_cast<double>(kid_hi));
+            child = static_cast<double>(kid_delta);
         }
         // the nested bound and the cap are both true bounds: the smaller is kept, and the box
         // widened by it still holds the surface over the diamond and every descendant's box
@@ -484,6 +510,7 @@ std::size_t BlockBounds::memoryBytes() const {
            bounds_.capacity() * sizeof(DiamondBounds) +
            (caps_.capacity() + cell_caps_.capacity()) * sizeof(float) +
            bound_cells_.capacity() * sizeof(DetailBlocks::CellXY) +
+           frames_.capacity() * sizeof(CellFrame) +
            target_bounds_.capacity() * sizeof(std::size_t) +
            targets_.capacity() * sizeof(DetailBlocks::CellXY);
 }

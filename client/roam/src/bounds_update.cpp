@@ -349,42 +349,80 @@ void BoundsUpdate::boundBlocks(
     const BlockGeometry geometry{
         metres_per_fine_, grid_w_, grid_h_, spec_.cellsX(), spec_.cellsY()};
     bounded_cell_ = {}; // the scratch no longer holds a single block's pass
-    for (std::size_t q = 0; q < square_ends_.size(); ++q) {
-        const std::size_t first = q == 0 ? 0 : square_ends_[q - 1];
-        const std::size_t last = square_ends_[q];
-        pass_cells_.clear();
-        for (std::size_t i = first; i < last; ++i)
-            pass_cells_.push_back(blocks_.cellOf(pass_blocks_[i]));
-        kernel_.compute(*terrain_, blocks_, geometry, pass_cells_);
-        for (std::size_t i = first; i < last; ++i) {
-            const std::int32_t b = pass_blocks_[i];
-            unsigned mask = 0;
-            for (int g = 0; g < kGrains; ++g)
-                if (pool_.chunkOf(b, g) >= 0)
-                    mask |= 1u << g;
-            storePass(i - first, b, mask, collect);
-            if (listener != nullptr)
-                listener->bounded(i - first, b);
-        }
+    for (std::size_t q = 0; q < square_ends_.size();) {
+        const std::size_t end = passEnd(q, square_ends_.size());
+        boundSquares(q, end, collect, geometry, listener);
+        q = end;
     }
 }
 
+void BoundsUpdate::boundSquares(
+    std::size_t first_square,
+    std::size_t end_square,
+    bool collect,
+    BlockGeometry geometry,
+    PassListener* listener) {
+    const std::size_t first = first_square == 0 ? 0 : square_ends_[first_square - 1];
+    const std::size_t last = square_ends_[end_square - 1];
+    pass_cells_.clear();
+    for (std::size_t i = first; i < last; ++i)
+        pass_cells_.push_back(blocks_.cellOf(pass_blocks_[i]));
+    kernel_.compute(*terrain_, blocks_, geometry, pass_cells_);
+    for (std::size_t i = first; i < last; ++i) {
+        const std::int32_t b = pass_blocks_[i];
+        unsigned mask = 0;
+        for (int g = 0; g < kGrains; ++g)
+            if (pool_.chunkOf(b, g) >= 0)
+                mask |= 1u << g;
+        storePass(i - first, b, mask, collect);
+        if (listener != nullptr)
+            listener->bounded(i - first, b);
+    }
+}
+
+namespace {
+constexpr std::int32_t kSquareCells = 16;
+/// A kernel pass's squares span at most this many a side (its scratch follows the cells it
+/// bounds, its per-cell tables the box: 66 x 66 cells at most).
+constexpr std::int32_t kPassSquares = 4;
+} // namespace
+
 void BoundsUpdate::sortIntoSquares(std::span<const std::int32_t> blocks) {
-    // one BlockBounds pass per square of cells, so that a pass's scratch stays small however
-    // scattered the blocks are (a pass spans its cells' bounding box)
-    constexpr std::int32_t kSquare = 16;
+    // one BlockBounds pass per square of cells, or per few neighbouring ones (passEnd), so that
+    // a pass's scratch stays small however scattered the blocks are (a pass spans its cells'
+    // bounding box)
     pass_blocks_.assign(blocks.begin(), blocks.end());
     const auto square = [&](std::int32_t b) {
         const DetailBlocks::CellXY c = blocks_.cellOf(b);
-        return std::pair{c.y / kSquare, c.x / kSquare};
+        return std::pair{c.y / kSquareCells, c.x / kSquareCells};
     };
     std::sort(pass_blocks_.begin(), pass_blocks_.end(), [&](std::int32_t a, std::int32_t b) {
         return std::pair{square(a), a} < std::pair{square(b), b};
     });
     square_ends_.clear();
+    square_at_.clear();
     for (std::size_t i = 1; i <= pass_blocks_.size(); ++i)
-        if (i == pass_blocks_.size() || square(pass_blocks_[i]) != square(pass_blocks_[i - 1]))
+        if (i == pass_blocks_.size() || square(pass_blocks_[i]) != square(pass_blocks_[i - 1])) {
             square_ends_.push_back(i);
+            const auto [sy, sx] = square(pass_blocks_[i - 1]);
+            square_at_.push_back({sx, sy});
+        }
+}
+
+std::size_t BoundsUpdate::passEnd(std::size_t first, std::size_t last) const {
+    std::array<std::int32_t, 2> lo = square_at_[first];
+    std::array<std::int32_t, 2> hi = lo;
+    std::size_t end = first + 1;
+    for (; end < last; ++end) {
+        const std::array<std::int32_t, 2> at = square_at_[end];
+        const std::array<std::int32_t, 2> nlo{std::min(lo[0], at[0]), std::min(lo[1], at[1])};
+        const std::array<std::int32_t, 2> nhi{std::max(hi[0], at[0]), std::max(hi[1], at[1])};
+        if (nhi[0] - nlo[0] >= kPassSquares || nhi[1] - nlo[1] >= kPassSquares)
+            break;
+        lo = nlo;
+        hi = nhi;
+    }
+    return end;
 }
 
 void BoundsUpdate::storeGrains(std::size_t i, std::int32_t block, unsigned grain_mask) {
@@ -492,9 +530,11 @@ void BoundsUpdate::boundBlocksParallel(std::span<const std::int32_t> blocks) {
         scratch.moved.clear();
         scratch.marks.clear();
         const std::size_t first_square = group == 0 ? 0 : group_ends_[group - 1];
-        for (std::size_t q = first_square; q < group_ends_[group]; ++q) {
+        for (std::size_t q = first_square; q < group_ends_[group];) {
+            const std::size_t end = passEnd(q, group_ends_[group]);
             const std::size_t first = q == 0 ? 0 : square_ends_[q - 1];
-            const std::size_t last = square_ends_[q];
+            const std::size_t last = square_ends_[end - 1];
+            q = end;
             scratch.cells.clear();
             for (std::size_t i = first; i < last; ++i)
                 scratch.cells.push_back(blocks_.cellOf(pass_blocks_[i]));

@@ -80,7 +80,26 @@ class BlockBounds {
     /// On the map's last lines or past them: the mesh reads other heights than the cell's own.
     bool special(std::int32_t cx, std::int32_t cy) const;
     void fillRuled(std::int32_t cx, std::int32_t cy, std::span<std::int64_t, kBlockVertices> out);
-    void boundCell(std::int32_t cx, std::int32_t cy, int level);
+    /// What a bound cell's passes read around it, gathered once per pass.
+    struct CellFrame {
+        std::int32_t cx = 0;
+        std::int32_t cy = 0;
+        bool clear = false; ///< every point of its 3 x 3 is on the map: no map checks
+        bool inner = false; ///< a cell of the padded grid, not a virtual one past it
+        const std::array<std::uint64_t, 4>* needed = nullptr;
+        const std::int64_t* own_raw = nullptr; ///< its own heights (not the ruled ones)
+        std::size_t own_bounds = 0;            ///< its first entry in bounds_ and caps_
+        /// Per cell of its 3 x 3 ((dy + 1) * 3 + dx + 1): the heights as the mesh's rules read
+        /// them (or none), its bound slot (or -1), its cap, its finest triangles' error (metres).
+        std::array<const std::int64_t*, 9> heights{};
+        std::array<std::int32_t, 9> bounds{-1, -1, -1, -1, -1, -1, -1, -1, -1};
+        std::array<float, 9> caps{};
+        std::array<double, 9> finest{};
+    };
+    CellFrame frameOf(std::int32_t cx, std::int32_t cy) const;
+    /// The bounds of the cell's needed diamonds of one level (the finer levels' being done).
+    void boundLevel(const CellFrame& f, int level);
+    template <bool kClear> void boundLevelOf(const CellFrame& f, int level);
 
     const Terrain* terrain_ = nullptr;
     const DetailBlocks* records_ = nullptr;
@@ -100,6 +119,7 @@ class BlockBounds {
     std::vector<float> caps_;
     std::vector<float> cell_caps_;                  ///< per region cell: its cellError (metres)
     std::vector<DetailBlocks::CellXY> bound_cells_; ///< the cells with bounds, by slot
+    std::vector<CellFrame> frames_;                 ///< by slot
     std::vector<std::size_t> target_bounds_;        ///< bound slot of each target
     std::vector<DetailBlocks::CellXY> targets_;
     std::array<std::int64_t, kBlockVertices> scratch_{};

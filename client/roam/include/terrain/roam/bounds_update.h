@@ -166,6 +166,18 @@ class BoundsUpdate {
         std::vector<VertexMark>* marks);
     /// `blocks` into pass_blocks_, sorted by square of cells (then id), and square_ends_.
     void sortIntoSquares(std::span<const std::int32_t> blocks);
+    /// The end (a square index, at most `last`) of a kernel pass starting at square `first`:
+    /// the squares after it while their bounding box stays within kPassSquares a side. A pass
+    /// over neighbouring squares computes the ring of cells between them once, not once per
+    /// square; its blocks are stored in the squares' order all the same.
+    std::size_t passEnd(std::size_t first, std::size_t last) const;
+    /// The blocks of squares [first, end) in one kernel pass, stored in order.
+    void boundSquares(
+        std::size_t first,
+        std::size_t end,
+        bool collect,
+        BlockGeometry geometry,
+        PassListener* listener);
     /// Stores `heights` into `block`'s resident grains in the mask; the tiles' vertex marks are
     /// made at once, or listed in `marks`.
     void storeHeightsFrom(
@@ -231,9 +243,10 @@ class BoundsUpdate {
     std::array<std::int64_t, kBlockVertices> heights_{};
     TaskRunner* runner_ = nullptr;
     std::int64_t parallel_passes_ = 0;
-    std::vector<PassScratch> scratch_;     ///< per group of a parallel pass
-    std::vector<std::size_t> square_ends_; ///< pass_blocks_' squares, each's end
-    std::vector<std::size_t> group_ends_;  ///< in squares
+    std::vector<PassScratch> scratch_;                   ///< per group of a parallel pass
+    std::vector<std::size_t> square_ends_;               ///< pass_blocks_' squares, each's end
+    std::vector<std::array<std::int32_t, 2>> square_at_; ///< each square's (x, y), in squares
+    std::vector<std::size_t> group_ends_;                ///< in squares
 };
 
 } // namespace terrain::roam
