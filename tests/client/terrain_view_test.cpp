@@ -14,7 +14,7 @@
 namespace terrain::client {
 namespace {
 
-Terrain map() {
+Terrain viewMap() {
     ProceduralMapOptions o;
     o.width = 193;
     o.height = 129;
@@ -40,7 +40,7 @@ std::set<std::array<std::int32_t, 6>> leaves(const roam::Tessellator& tess) {
 }
 
 TEST(TerrainView, FedOpByOpItDrawsWhatAFreshTessellatorOfTheFinalStateDraws) {
-    Terrain server = map();
+    Terrain server = viewMap();
     Replica replica;
     replica.loadSnapshot(std::move(*decodeSnapshot(encodeSnapshot(server, 1))));
     TerrainViewOptions o;
@@ -66,7 +66,7 @@ TEST(TerrainView, FedOpByOpItDrawsWhatAFreshTessellatorOfTheFinalStateDraws) {
 }
 
 TEST(TerrainView, SlowFramesLowerTheTriangleCap) {
-    const Terrain t = map();
+    const Terrain t = viewMap();
     Replica replica;
     replica.loadSnapshot(std::move(*decodeSnapshot(encodeSnapshot(t, 1))));
     TerrainViewOptions o;
@@ -88,7 +88,7 @@ TEST(TerrainView, SlowFramesLowerTheTriangleCap) {
 }
 
 TEST(TerrainView, AClickAsksForTheCraterUnderThePixelAndASkyClickForNone) {
-    const Terrain t = map();
+    const Terrain t = viewMap();
     roam::Camera cam = downAt(t, 80.0, 50.0, 40.0);
     const CraterShape shape{.radius = 5.0, .depth = 2.0, .rim = 0.3};
     const std::optional<OpRequest> centre = craterAtPixel(t, cam, 320.0, 180.0, shape);

@@ -13,7 +13,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path kDemDir = TERRAIN_DEM_DIR;
+const fs::path kGenesisDemDir = TERRAIN_DEM_DIR;
 
 TEST(Genesis, WithoutAFileItIsTheProceduralMapOfTheSeedAndSize) {
     GenesisOptions g;
@@ -40,7 +40,7 @@ TEST(Genesis, WithoutAFileItIsTheProceduralMapOfTheSeedAndSize) {
 }
 
 TEST(Genesis, ADemWinsAndTakesTheToleranceItIsGiven) {
-    const fs::path dem = kDemDir / "msh_crater_2007" / "msh_crater_2007.json";
+    const fs::path dem = kGenesisDemDir / "msh_crater_2007" / "msh_crater_2007.json";
     if (!fs::exists(dem))
         GTEST_SKIP() << "reference DEM " << dem << " is absent (../shared/data/dem)";
     GenesisOptions g;

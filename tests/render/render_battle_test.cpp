@@ -33,8 +33,8 @@
 namespace terrain {
 namespace {
 
-constexpr int kWidth = 480;
-constexpr int kHeight = 320;
+constexpr int kBattleWidth = 480;
+constexpr int kBattleHeight = 320;
 
 render::OffscreenBackend testBackend() {
     const char* gl = std::getenv("TERRAIN_TEST_GL");
@@ -89,7 +89,7 @@ TEST_P(RenderBattle, IncrementalBuffersDrawWhatFreshBuffersDrawWithoutHoles) {
     Terrain t = testing::makeHills(21, 385, 385, 1.0);
     render::RendererOptions options = testing::RenderScene::validating();
     options.upload = GetParam();
-    testing::RenderScene scene(t, 1.0, kWidth, kHeight, testBackend(), options);
+    testing::RenderScene scene(t, 1.0, kBattleWidth, kBattleHeight, testBackend(), options);
     ASSERT_TRUE(scene.ok());
     // the path asked for is the path taken (llvmpipe has buffer storage)
     ASSERT_EQ(scene.renderer->uploadPath(), GetParam());
@@ -98,8 +98,8 @@ TEST_P(RenderBattle, IncrementalBuffersDrawWhatFreshBuffersDrawWithoutHoles) {
     lodlab::FlightOptions fo;
     fo.kind = lodlab::FlightKind::kBattle;
     fo.frames = battleFrames(GetParam());
-    fo.width = kWidth;
-    fo.height = kHeight;
+    fo.width = kBattleWidth;
+    fo.height = kBattleHeight;
     fo.seed = 3;
     const std::vector<lodlab::FlightFrame> flight = lodlab::makeFlight(t, fo);
     BattleGenerator shots = lodlab::battleGenerator(t);
@@ -218,13 +218,13 @@ TEST(RenderValidation, TheDebugLogCountsADriverError) {
 // the next sync, though nothing was uploaded.
 TEST(RenderValidation, SeesABufferChangedBehindTheRenderersBack) {
     Terrain t = testing::makeHills(7, 257, 257, 1.0);
-    testing::RenderScene scene(t, 1.0, kWidth, kHeight, testBackend());
+    testing::RenderScene scene(t, 1.0, kBattleWidth, kBattleHeight, testBackend());
     ASSERT_TRUE(scene.ok());
     roam::Camera camera;
     camera.eye = {-30.0, -30.0, 80.0};
     camera.forward = glm::dvec3(128.0, 128.0, 30.0) - camera.eye;
-    camera.viewport_width = kWidth;
-    camera.viewport_height = kHeight;
+    camera.viewport_width = kBattleWidth;
+    camera.viewport_height = kBattleHeight;
     (void)scene.frame(camera);
     EXPECT_TRUE(scene.renderer->validation().clean());
     // every buffer of the context: zeros over its first 256 bytes
@@ -263,14 +263,14 @@ namespace {
 // frame, each within the wall time the frames took.
 TEST(GpuTimer, FramesComeBackTimedWithinTheirWallTime) {
     Terrain t = testing::makeHills(7, 257, 257, 1.0);
-    testing::RenderScene scene(t, 1.0, kWidth, kHeight, testBackend());
+    testing::RenderScene scene(t, 1.0, kBattleWidth, kBattleHeight, testBackend());
     ASSERT_TRUE(scene.ok());
     render::GpuTimer timer(scene.context->gl());
     roam::Camera camera;
     camera.eye = {-30.0, -30.0, 80.0};
     camera.forward = glm::dvec3(128.0, 128.0, 30.0) - camera.eye;
-    camera.viewport_width = kWidth;
-    camera.viewport_height = kHeight;
+    camera.viewport_width = kBattleWidth;
+    camera.viewport_height = kBattleHeight;
     std::vector<double> times;
     std::array<double, render::GpuTimer::kQueries> done{};
     const auto start = std::chrono::steady_clock::now();
@@ -313,15 +313,15 @@ namespace {
 // buffers afterwards (vertices, and index pages: the renderer's unit), read back and compared.
 TEST(RenderBattleUploads, ACratersUploadsAreWithinFourTimesWhatItChanged) {
     Terrain t = testing::makeHills(21, 385, 385, 1.0);
-    testing::RenderScene scene(t, 1.0, kWidth, kHeight, testBackend());
+    testing::RenderScene scene(t, 1.0, kBattleWidth, kBattleHeight, testBackend());
     ASSERT_TRUE(scene.ok());
     const lodlab::BattleZone zone = lodlab::battleZone(t);
     roam::Camera camera;
     const glm::dvec3 centre(zone.x, zone.y, surfaceHeight(t, zone.x, zone.y));
     camera.eye = centre + glm::dvec3(-30.0, -22.0, 18.0);
     camera.forward = centre - camera.eye;
-    camera.viewport_width = kWidth;
-    camera.viewport_height = kHeight;
+    camera.viewport_width = kBattleWidth;
+    camera.viewport_height = kBattleHeight;
     BattleGenerator shots = lodlab::battleGenerator(t);
     // settle: the mesh and the buffers reach the view
     for (int f = 0; f < 20; ++f)

@@ -24,8 +24,8 @@
 namespace terrain {
 namespace {
 
-constexpr int kWidth = 480;
-constexpr int kHeight = 320;
+constexpr int kWorkerWidth = 480;
+constexpr int kWorkerHeight = 320;
 
 int frames() {
 #if defined(__SANITIZE_ADDRESS__)
@@ -65,8 +65,8 @@ struct Battle {
         lodlab::FlightOptions fo;
         fo.kind = lodlab::FlightKind::kBattle;
         fo.frames = frames();
-        fo.width = kWidth;
-        fo.height = kHeight;
+        fo.width = kWorkerWidth;
+        fo.height = kWorkerHeight;
         fo.seed = 3;
         return lodlab::makeFlight(world, fo);
     }
@@ -91,7 +91,7 @@ TEST(RenderWorker, InLockstepEveryPictureIsTheSynchronousPathsPicture) {
     client::TerrainView sync(sync_replica, o.view);
     roam::DrawnMesh mesh;
 
-    testing::RenderScene scene(sync_replica.terrain(), 1.0, kWidth, kHeight);
+    testing::RenderScene scene(sync_replica.terrain(), 1.0, kWorkerWidth, kWorkerHeight);
     ASSERT_TRUE(scene.ok());
     auto from_worker = render::TerrainRenderer::create(*scene.context, scene.validating());
     ASSERT_TRUE(from_worker.ok());
@@ -132,7 +132,7 @@ TEST(RenderWorker, RunningFreeTheBuffersHoldTheCopyAndThePictureHasNoHoles) {
     battle.load(replica);
     client::TessellationWorker worker(replica, workerOptions(false));
     roam::DrawnMesh mesh;
-    testing::RenderScene scene(replica.terrain(), 1.0, kWidth, kHeight);
+    testing::RenderScene scene(replica.terrain(), 1.0, kWorkerWidth, kWorkerHeight);
     ASSERT_TRUE(scene.ok());
     scene.renderer->setEvictAfterFrames(4);
     const render::RenderOptions draw_options;

@@ -21,7 +21,7 @@ void crater(Terrain& t, double x, double y, double r = 4.0) {
 }
 
 // equal in every byte a snapshot holds: samples, original ground, patches, hashes
-void expectSameWorld(const Terrain& a, const Terrain& b) {
+void expectEqualCopies(const Terrain& a, const Terrain& b) {
     EXPECT_EQ(a.worldHash(), b.worldHash());
     EXPECT_EQ(b.worldHash(), b.computeWorldHash());
     EXPECT_EQ(a.patchCount(), b.patchCount());
@@ -39,7 +39,7 @@ TEST(TerrainCopy, aCopyAndItsSourceChangeApart) {
     Terrain copy = t;
     ASSERT_GT(copy.patchCount(), 0u);
     crater(t, 41, 42, 6.0); // rewrites patches the copy shares
-    expectSameWorld(copy, before);
+    expectEqualCopies(copy, before);
     crater(copy, 100, 90);
     EXPECT_NE(t.worldHash(), copy.worldHash());
     EXPECT_EQ(t.worldHash(), t.computeWorldHash());
@@ -52,7 +52,7 @@ TEST(TerrainCopy, syncFromCopiesOnlyTheChangedTilesAndEndsEqual) {
     EXPECT_EQ(kept.syncFrom(t), 0u);
     crater(t, 20, 20); // inside tile 0 only
     EXPECT_EQ(kept.syncFrom(t), 1u);
-    expectSameWorld(t, kept);
+    expectEqualCopies(t, kept);
     EXPECT_EQ(kept.syncFrom(t), 0u);
     // on the corner of four tiles, then on the map's far edge (the padded last tiles)
     crater(t, 64, 64, 5.0);
@@ -60,7 +60,7 @@ TEST(TerrainCopy, syncFromCopiesOnlyTheChangedTilesAndEndsEqual) {
     const std::size_t copied = kept.syncFrom(t);
     EXPECT_GE(copied, 4u);
     EXPECT_LE(copied, 6u);
-    expectSameWorld(t, kept);
+    expectEqualCopies(t, kept);
 }
 
 TEST(TerrainCopy, syncFromUndoesTheCopysOwnChanges) {
@@ -70,7 +70,7 @@ TEST(TerrainCopy, syncFromUndoesTheCopysOwnChanges) {
     crater(kept, 120, 30); // a change the source never had
     crater(t, 30, 101);
     EXPECT_EQ(kept.syncFrom(t), 2u);
-    expectSameWorld(t, kept);
+    expectEqualCopies(t, kept);
 }
 
 TEST(TerrainCopy, syncFromFollowsARepairAndAnUnrelatedWorld) {
@@ -86,16 +86,16 @@ TEST(TerrainCopy, syncFromFollowsARepairAndAnUnrelatedWorld) {
     ASSERT_TRUE(rec.ok()) << rec.error().message;
     t.replaceTile(4, rec->samples, rec->originals, rec->patches);
     kept.syncFrom(t);
-    expectSameWorld(t, kept);
+    expectEqualCopies(t, kept);
     // a world that shares nothing with the copy (another genesis, same size): every tile
     Terrain unrelated = testing::makeHills(62);
     crater(unrelated, 10, 10);
     EXPECT_EQ(kept.syncFrom(unrelated), static_cast<std::size_t>(t.spec().tileCount()));
-    expectSameWorld(unrelated, kept);
+    expectEqualCopies(unrelated, kept);
     // another size: a whole copy
     Terrain small = testing::makeHills(63, 70, 70);
     kept.syncFrom(small);
-    expectSameWorld(small, kept);
+    expectEqualCopies(small, kept);
 }
 
 TEST(TerrainCopy, aDecodedWorldIsNeverTakenForItsSource) {
@@ -106,7 +106,7 @@ TEST(TerrainCopy, aDecodedWorldIsNeverTakenForItsSource) {
     Terrain kept = t;
     // same bytes, but decoding made tiles of its own: all copied, the result still equal
     EXPECT_EQ(kept.syncFrom(decoded->terrain), static_cast<std::size_t>(t.spec().tileCount()));
-    expectSameWorld(t, kept);
+    expectEqualCopies(t, kept);
 }
 
 } // namespace
