@@ -370,11 +370,7 @@ void BoundsUpdate::boundSquares(
     kernel_.compute(*terrain_, blocks_, geometry, pass_cells_);
     for (std::size_t i = first; i < last; ++i) {
         const std::int32_t b = pass_blocks_[i];
-        unsigned mask = 0;
-        for (int g = 0; g < kGrains; ++g)
-            if (pool_.chunkOf(b, g) >= 0)
-                mask |= 1u << g;
-        storePass(i - first, b, mask, collect);
+        storePass(i - first, b, residentGrains(b), collect);
         if (listener != nullptr)
             listener->bounded(i - first, b);
     }
@@ -386,6 +382,14 @@ constexpr std::int32_t kSquareCells = 16;
 /// bounds, its per-cell tables the box: 66 x 66 cells at most).
 constexpr std::int32_t kPassSquares = 4;
 } // namespace
+
+unsigned BoundsUpdate::residentGrains(std::int32_t block) const {
+    unsigned mask = 0;
+    for (int g = 0; g < kGrains; ++g)
+        if (pool_.chunkOf(block, g) >= 0)
+            mask |= 1u << g;
+    return mask;
+}
 
 void BoundsUpdate::sortIntoSquares(std::span<const std::int32_t> blocks) {
     // one BlockBounds pass per square of cells, or per few neighbouring ones (passEnd), so that
@@ -541,13 +545,9 @@ void BoundsUpdate::boundBlocksParallel(std::span<const std::int32_t> blocks) {
             scratch.kernel.compute(*terrain_, blocks_, geometry, scratch.cells);
             for (std::size_t i = first; i < last; ++i) {
                 const std::int32_t b = pass_blocks_[i];
-                unsigned mask = 0;
-                for (int g = 0; g < kGrains; ++g)
-                    if (pool_.chunkOf(b, g) >= 0)
-                        mask |= 1u << g;
                 storePassFrom(
-                    scratch.kernel, scratch.heights, i - first, b, mask, &scratch.moved,
-                    &scratch.marks);
+                    scratch.kernel, scratch.heights, i - first, b, residentGrains(b),
+                    &scratch.moved, &scratch.marks);
             }
         }
     });

@@ -171,6 +171,8 @@ class BoundsUpdate {
     /// over neighbouring squares computes the ring of cells between them once, not once per
     /// square; its blocks are stored in the squares' order all the same.
     std::size_t passEnd(std::size_t first, std::size_t last) const;
+    /// The grains of `block` resident in the pool, a bit each.
+    unsigned residentGrains(std::int32_t block) const;
     /// The blocks of squares [first, end) in one kernel pass, stored in order.
     void boundSquares(
         std::size_t first,
