@@ -3,10 +3,22 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 
 namespace terrain::client {
 
 namespace {
+
+std::chrono::steady_clock::duration seconds(double s) {
+    return std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(s));
+}
+
+std::string secondsText(double s) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%g s", s);
+    return text;
+}
 
 std::uint64_t nowNs() {
     return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
@@ -18,7 +30,7 @@ std::uint64_t nowNs() {
 
 Connection::Connection(asio::io_context& io, ConnectionConfig config, Replica& replica)
     : io_(io), config_(config), machine_(std::move(config), replica), socket_(io), resolver_(io),
-      timer_(io) {
+      timer_(io), attempt_timer_(io) {
     machine_.on_deform_reply = [this](const DeformAnswer& a) {
         if (on_deform_reply)
             on_deform_reply(a);
@@ -56,6 +68,7 @@ Connection::State Connection::state() const {
 }
 
 void Connection::start() {
+    down_since_ = std::chrono::steady_clock::now();
     connect();
 }
 
@@ -65,6 +78,7 @@ void Connection::stop() {
     machine_.linkDown();
     asio::error_code ignored;
     timer_.cancel();
+    attempt_timer_.cancel();
     socket_.shutdown(asio::ip::tcp::socket::shutdown_both, ignored);
     socket_.close(ignored);
 }
@@ -81,6 +95,18 @@ void Connection::connect() {
     writing_.clear();
     write_busy_ = false;
     socket_ = asio::ip::tcp::socket(io_);
+    if (config_.connect_timeout_seconds > 0.0) {
+        attempt_timer_.expires_after(seconds(config_.connect_timeout_seconds));
+        attempt_timer_.async_wait([self = shared_from_this(), gen](const asio::error_code& ec) {
+            if (ec || gen != self->generation_ || self->state_ != Link::kConnecting)
+                return;
+            self->lost(
+                "connect: no answer from " + self->config_.host + ":" +
+                    std::to_string(self->config_.port) + " within " +
+                    secondsText(self->config_.connect_timeout_seconds),
+                false);
+        });
+    }
     resolver_.async_resolve(
         config_.host, std::to_string(config_.port),
         [self = shared_from_this(), gen](const asio::error_code& ec, auto results) {
@@ -105,6 +131,7 @@ void Connection::connect() {
 }
 
 void Connection::onConnected() {
+    attempt_timer_.cancel();
     ++machine_.counters().connects;
     asio::error_code ignored;
     socket_.set_option(asio::ip::tcp::no_delay(true), ignored);
@@ -140,6 +167,10 @@ void Connection::readMore() {
 void Connection::afterMachine() {
     if (state_ != Link::kLinked)
         return;
+    if (!was_live_ && machine_.phase() == ClientMachine::Phase::kLive) {
+        was_live_ = true;
+        last_disconnect_.clear(); // a live link again: the old loss is history
+    }
     if (const auto& drop = machine_.drop()) {
         const ClientMachine::Drop d = *drop;
         lost(d.why, d.final);
@@ -222,7 +253,12 @@ void Connection::lost(const std::string& why, bool final_reason) {
     ++machine_.counters().disconnects;
     ++generation_;
     const bool was_live = machine_.phase() == ClientMachine::Phase::kLive;
+    const auto now = std::chrono::steady_clock::now();
+    if (was_live)
+        down_since_ = now;
+    was_live_ = false;
     machine_.linkDown();
+    attempt_timer_.cancel();
     last_disconnect_ = why;
     asio::error_code ignored;
     socket_.shutdown(asio::ip::tcp::socket::shutdown_both, ignored);
@@ -233,17 +269,37 @@ void Connection::lost(const std::string& why, bool final_reason) {
         state_ = Link::kClosed;
         return;
     }
+    if (giveUpIfDue(now))
+        return;
     state_ = Link::kWaiting;
     failed_attempts_ = was_live ? 0 : std::min(failed_attempts_ + 1, 30);
     const double delay = std::min(
         std::max(config_.reconnect_max_delay_seconds, config_.reconnect_delay_seconds),
         config_.reconnect_delay_seconds * std::ldexp(1.0, failed_attempts_));
-    timer_.expires_after(std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-        std::chrono::duration<double>(delay)));
+    auto wait = seconds(delay);
+    if (config_.give_up_seconds > 0.0) // wake to give up on time, not after a whole backoff
+        wait = std::min(wait, down_since_ + seconds(config_.give_up_seconds) - now);
+    timer_.expires_after(wait);
     timer_.async_wait([self = shared_from_this()](const asio::error_code& ec) {
-        if (!ec && self->state_ == Link::kWaiting)
+        if (ec || self->state_ != Link::kWaiting)
+            return;
+        if (!self->giveUpIfDue(std::chrono::steady_clock::now()))
             self->connect();
     });
+}
+
+bool Connection::giveUpIfDue(std::chrono::steady_clock::time_point now) {
+    if (config_.give_up_seconds <= 0.0 || now - down_since_ < seconds(config_.give_up_seconds))
+        return false;
+    state_ = Link::kClosed;
+    timer_.cancel();
+    last_disconnect_ = "CONNECT_TIMEOUT: no live link to " + config_.host + ":" +
+                       std::to_string(config_.port) + " for " +
+                       secondsText(config_.give_up_seconds) +
+                       "; gave up (last: " + last_disconnect_ + ")";
+    if (on_disconnect)
+        on_disconnect(last_disconnect_);
+    return true;
 }
 
 } // namespace terrain::client

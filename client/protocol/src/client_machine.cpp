@@ -378,6 +378,8 @@ std::uint64_t ClientMachine::namedGenesis() const {
 }
 
 std::uint32_t ClientMachine::requestDeform(const OpRequest& request) {
+    if (!canSend())
+        return 0;
     pb::Envelope envelope;
     pb::DeformRequest* r = envelope.mutable_deform();
     const std::uint32_t id = next_request_id_++;
@@ -388,6 +390,8 @@ std::uint32_t ClientMachine::requestDeform(const OpRequest& request) {
 }
 
 std::uint32_t ClientMachine::requestDeform(const DeformOp& op) {
+    if (!canSend())
+        return 0;
     pb::Envelope envelope;
     pb::DeformRequest* r = envelope.mutable_deform();
     const std::uint32_t id = next_request_id_++;
@@ -398,6 +402,8 @@ std::uint32_t ClientMachine::requestDeform(const DeformOp& op) {
 }
 
 std::uint32_t ClientMachine::queryHeight(double x, double y) {
+    if (!canSend())
+        return 0;
     pb::Envelope envelope;
     const std::uint32_t id = next_request_id_++;
     envelope.mutable_height_query()->set_request_id(id);
@@ -409,6 +415,8 @@ std::uint32_t ClientMachine::queryHeight(double x, double y) {
 
 std::uint32_t
 ClientMachine::castRay(const double origin[3], const double direction[3], double max_distance) {
+    if (!canSend())
+        return 0;
     pb::Envelope envelope;
     pb::RayQuery* q = envelope.mutable_ray_query();
     const std::uint32_t id = next_request_id_++;
@@ -431,9 +439,19 @@ void ClientMachine::ping(std::uint64_t now_ns) {
     send(envelope);
 }
 
+bool ClientMachine::canSend() {
+    if (phase_ != Phase::kOffline && !drop_)
+        return true;
+    // said at once, not dropped in silence: a game must not wait for an answer that cannot come
+    refusal_ = drop_ ? "NOT_CONNECTED: the link is closing (" + drop_->why + "); nothing was sent"
+                     : "NOT_CONNECTED: no link to the server is up (connecting, or waiting to "
+                       "reconnect); nothing was sent";
+    return false;
+}
+
 void ClientMachine::send(const pb::Envelope& envelope) {
     if (phase_ == Phase::kOffline || drop_)
-        return; // requests made while disconnected are dropped; the caller sees no reply
+        return; // a ping or a protocol frame while offline: the next link starts afresh
     wire::appendFrame(envelope, out_);
 }
 

@@ -9,6 +9,7 @@
 #include <terrain/client/client_machine.h>
 
 #include <asio.hpp>
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -44,6 +45,9 @@ class Connection : public std::enable_shared_from_this<Connection> {
     /// Ops received and not applied yet (always 0 unpaced).
     std::size_t opsWaiting() const { return machine_.opsWaiting(); }
 
+    /// Requests return their id, or 0 when nothing was sent because no link is up (connecting,
+    /// waiting to reconnect, closed): lastRefusal() says why. The answers come through the
+    /// callbacks below; a request sent and then lost with its link gets none.
     std::uint32_t requestDeform(const OpRequest& request);
     std::uint32_t requestDeform(const DeformOp& op);
     std::uint32_t queryHeight(double x, double y);
@@ -59,8 +63,11 @@ class Connection : public std::enable_shared_from_this<Connection> {
     std::function<void(const std::string& reason)> on_disconnect;
 
     const ConnectionStats& stats() const { return machine_.stats(); }
-    /// "REASON_...: message" of the last Disconnect received, or the socket error.
+    /// Why the last link was lost ("REASON_...: message" of the server's Disconnect, the socket
+    /// error, or "CONNECT_TIMEOUT: ..." when it gave up); "" once a link is live again.
     const std::string& lastDisconnect() const { return last_disconnect_; }
+    /// Why the last request returned 0 ("NOT_CONNECTED: ...").
+    const std::string& lastRefusal() const { return machine_.refusal(); }
     std::uint64_t playerId() const { return machine_.playerId(); }
     const std::string& role() const { return machine_.role(); }
     /// Seconds of the last ping round trip (0 before one completes).
@@ -78,6 +85,8 @@ class Connection : public std::enable_shared_from_this<Connection> {
     void afterMachine();
     /// Closes the socket; reconnects later unless stopped or the reason is final.
     void lost(const std::string& why, bool final_reason);
+    /// Closes for good when no link has been live for give_up_seconds; true if it did.
+    bool giveUpIfDue(std::chrono::steady_clock::time_point now);
 
     asio::io_context& io_;
     ConnectionConfig config_;
@@ -85,12 +94,15 @@ class Connection : public std::enable_shared_from_this<Connection> {
     asio::ip::tcp::socket socket_;
     asio::ip::tcp::resolver resolver_;
     asio::steady_timer timer_;
+    asio::steady_timer attempt_timer_; // the connect timeout of the attempt under way
     Link state_ = Link::kIdle;
     std::vector<std::uint8_t> writing_; // frames being written
     bool write_busy_ = false;
     std::uint64_t generation_ = 0; // bumps on each new socket; stale handlers ignore themselves
     std::string last_disconnect_;
     int failed_attempts_ = 0; // attempts in a row that did not reach live (reconnect backoff)
+    std::chrono::steady_clock::time_point down_since_; // start(), or the live link's loss
+    bool was_live_ = false; // the machine was live when last looked at (clears last_disconnect_)
 };
 
 } // namespace terrain::client

@@ -36,6 +36,13 @@ struct ConnectionConfig {
     /// down) doubles the delay, up to this; a join that goes live resets it. A refused client
     /// does not hammer a busy server.
     double reconnect_max_delay_seconds = 5.0;
+    /// An attempt whose TCP connect has not completed after this long is abandoned and counts as
+    /// a failed attempt (a host that drops packets would otherwise hold it for minutes). 0: the
+    /// system's own timeout.
+    double connect_timeout_seconds = 5.0;
+    /// Give up: when no link has gone live for this long (since start(), or since the live link
+    /// was lost), the connection closes for good and says so (CONNECT_TIMEOUT). 0: keep trying.
+    double give_up_seconds = 0.0;
     /// Name the genesis the replica holds in Hello and snapshot requests, so that joins and
     /// resyncs come as genesis deltas (only the tiles that differ from it) when the server's
     /// genesis is the same. Off: always the whole snapshot.
@@ -134,7 +141,8 @@ class ClientMachine {
     /// Ops received and not applied yet (always 0 unpaced).
     std::size_t opsWaiting() const { return inbox_.size(); }
 
-    // Requests (dropped while offline: the caller sees no reply).
+    // Requests: each returns its id (its answer comes through the callbacks below), or 0 when
+    // nothing was sent because no link is up (offline, or closing): refusal() then says why.
     std::uint32_t requestDeform(const OpRequest& request);
     std::uint32_t requestDeform(const DeformOp& op);
     std::uint32_t queryHeight(double x, double y);
@@ -150,6 +158,8 @@ class ClientMachine {
     const ConnectionStats& stats() const { return stats_; }
     /// The shell counts its part (connects, bytes, disconnects) here too.
     ConnectionStats& counters() { return stats_; }
+    /// Why the last request returned 0 ("NOT_CONNECTED: ..."); "" until one did.
+    const std::string& refusal() const { return refusal_; }
     /// "REASON_...: message" of the last Disconnect received ("" until one).
     const std::string& lastDisconnect() const { return last_disconnect_; }
     std::uint64_t playerId() const { return player_id_; }
@@ -173,6 +183,8 @@ class ClientMachine {
     void requestSnapshot();
     /// The genesis named to the server: the replica's, unless off or refused once (0: none).
     std::uint64_t namedGenesis() const;
+    /// False, with refusal() set, when no link is up to carry a request.
+    bool canSend();
     void send(const wire::pb::Envelope& envelope);
     /// Asks the shell to close the link; frames after this one are not read.
     void lose(std::string why, bool final_reason);
@@ -199,6 +211,7 @@ class ClientMachine {
     int repair_rounds_ = 0;
     std::size_t repair_tiles_requested_ = 0;
     std::uint32_t next_request_id_ = 1;
+    std::string refusal_;
     std::uint64_t player_id_ = 0;
     std::string role_;
     std::string last_disconnect_;
