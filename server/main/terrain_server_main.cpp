@@ -442,9 +442,13 @@ class HealthProbe {
         pb::Envelope request;
         request.mutable_health_request();
         wire::appendFrame(request, out_);
+        // a host or port that does not resolve is a failed probe, not an abort
+        asio::error_code rec;
+        const auto endpoints = resolver_.resolve(host, port, rec);
+        if (rec)
+            return fail("cannot resolve " + host + ":" + port + ": " + rec.message());
         asio::async_connect(
-            socket_, resolver_.resolve(host, port),
-            [this](const asio::error_code& ec, const asio::ip::tcp::endpoint&) {
+            socket_, endpoints, [this](const asio::error_code& ec, const asio::ip::tcp::endpoint&) {
                 onConnected(ec);
             });
     }
@@ -519,6 +523,8 @@ int healthCheck(const Options& o) {
 int main(int argc, char** argv) {
     Options o;
     CLI::App app{"terrain-server: authoritative deformable terrain over TCP"};
+    // --help shows every option's default (the subcommands inherit this)
+    app.option_defaults()->always_capture_default();
     app.add_option(
            "--token-secret", o.secret, "HMAC secret for access tokens (>= 16 bytes, or hex:...)")
         ->envname("TERRAIN_TOKEN_SECRET");
@@ -587,6 +593,7 @@ int main(int argc, char** argv) {
             "--tolerance", o.tolerance,
             "genesis map: patch tolerance in metres (default 1/32 m; a DEM: its spacing / 64, at "
             "least 1/32 m)")
+        ->envname("TERRAIN_TOLERANCE")
         ->check(CLI::Range(1.0 / 1024, 10.0));
     serve_cmd->add_option("--max-sessions", o.max_sessions, "player slots (sessions past Hello)")
         ->envname("TERRAIN_MAX_SESSIONS");
@@ -654,7 +661,8 @@ int main(int argc, char** argv) {
             "journal snapshot every N ops too, whichever rule comes first; 0: off")
         ->envname("TERRAIN_SNAPSHOT_EVERY")
         ->capture_default_str();
-    serve_cmd->add_option("--port-file", o.port_file, "write the bound port to this file");
+    serve_cmd->add_option("--port-file", o.port_file, "write the bound port to this file")
+        ->envname("TERRAIN_PORT_FILE");
 
     CLI::App* token_cmd = app.add_subcommand("token", "mint an access token");
     token_cmd->add_option("--player", o.player)->required();

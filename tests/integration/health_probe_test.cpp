@@ -70,6 +70,12 @@ TEST(HealthProbe, SaysOkWithTheWorldFromALiveServerAndFailsOnAClosedPortOrABadAd
     const ProbeResult bad = probe("nonsense");
     EXPECT_EQ(bad.code, 2) << bad.out;
     EXPECT_NE(bad.out.find("--connect must be host:port"), std::string::npos) << bad.out;
+    // a port that does not resolve is a failed probe with its reason, not an abort
+    const ProbeResult unresolved = probe("127.0.0.1:notaport");
+    EXPECT_EQ(unresolved.code, 1) << unresolved.out;
+    EXPECT_NE(
+        unresolved.out.find("health: FAIL: cannot resolve 127.0.0.1:notaport"), std::string::npos)
+        << unresolved.out;
     fs::remove_all(dir);
 }
 

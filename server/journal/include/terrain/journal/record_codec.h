@@ -5,7 +5,7 @@
 // decodeRecord().
 //
 // Segment header, 24 bytes, little-endian:
-//   "TJSG" u32 version(1) u64 first_seq u64 XXH3-64 of the 16 bytes before it
+//   "TJSG" u32 version (kSegmentVersion, 2) u64 first_seq u64 XXH3-64 of the 16 bytes before it
 // Record, kRecordSize = 57 bytes, little-endian:
 //   "TJR1" u64 seq u8 kind i64 center_x i64 center_y i32 radius i32 height i32 strength
 //   u64 world_hash (after applying the op) u64 XXH3-64 of the 49 bytes before it
