@@ -2,6 +2,7 @@
 #include "terrain_shaders.h"
 
 #include <terrain/render/terrain_program.h>
+#include <terrain/roam/drawn_mesh.h>
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/matrix_transform.hpp>
@@ -92,7 +93,7 @@ void TerrainProgram::beginFrame(
 }
 
 double TerrainProgram::metresPerLattice(const WorldSpec& spec) {
-    return spec.spacingMetres() / roam::kLatticePerCell;
+    return roam::DrawnMesh::metresPerLattice(spec);
 }
 
 void TerrainProgram::endFrame(const GlApi& gl) const {

@@ -1,4 +1,5 @@
 #include <terrain/roam/drawn_mesh.h>
+#include <terrain/roam/lattice.h>
 
 #include <algorithm>
 #include <cstring>
@@ -53,6 +54,7 @@ bool DrawnMesh::apply(const MeshDelta& delta) {
         spec_ = delta.spec;
     }
     step_ = delta.step;
+    const auto per_lattice = static_cast<float>(metresPerLattice(spec_));
     for (std::int32_t t = 0; t < delta.tile_count; ++t) {
         tiles_[at(t)].visible = delta.visible[at(t)] != 0;
         tiles_[at(t)].version = delta.versions[at(t)];
@@ -91,6 +93,11 @@ bool DrawnMesh::apply(const MeshDelta& delta) {
             std::memcpy(
                 copy.vertices.data() + run.begin, delta.vertices.data() + run.at,
                 std::size_t{run.end - run.begin} * sizeof(DrawVertex));
+            if (units_ == Units::kMetres)
+                for (std::uint32_t v = run.begin; v < run.end; ++v) {
+                    copy.vertices[v].x *= per_lattice;
+                    copy.vertices[v].y *= per_lattice;
+                }
             if (!copy.all_vertices)
                 copy.vertex_changes.push_back({run.begin, run.end});
         }
@@ -113,6 +120,10 @@ bool DrawnMesh::apply(const MeshDelta& delta) {
         height_range_ = lo <= hi ? std::pair{lo, hi} : std::pair{0.0f, 0.0f};
     }
     return true;
+}
+
+double DrawnMesh::metresPerLattice(const WorldSpec& spec) {
+    return spec.spacingMetres() / kLatticePerCell;
 }
 
 void DrawnMesh::takeVertexChanges(std::int32_t tile) {

@@ -25,6 +25,16 @@ namespace terrain::roam {
 
 class DrawnMesh {
   public:
+    /// Where the copy's vertices put x and y: lattice units, as the deltas carry them and our
+    /// renderer's program takes them, or metres from the map's corner (x and y times
+    /// metresPerLattice(), at the copy: what an engine outside takes).
+    enum class Units { kLattice, kMetres };
+    explicit DrawnMesh(Units units = Units::kLattice) : units_(units) {}
+
+    /// Metres per lattice unit of a world: its grid spacing over kLatticePerCell.
+    static double metresPerLattice(const WorldSpec& spec);
+    Units units() const { return units_; }
+
     /// Brings the tiles to the delta's step. Refused (false, nothing changed): a delta not newer
     /// than the copy, one for another tile count that does not start the tiles over, or one
     /// that does not hold together (a page past its list, a run past its array or the delta's
@@ -94,6 +104,7 @@ class DrawnMesh {
     static void markPage(TileCopy& copy, std::uint32_t page);
     static bool wellFormed(const MeshDelta& delta);
 
+    Units units_ = Units::kLattice;
     std::vector<TileCopy> tiles_;
     std::uint64_t step_ = 0;
     WorldSpec spec_{};

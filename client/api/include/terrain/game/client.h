@@ -1,0 +1,228 @@
+#pragma once
+
+// The terrain client a game links: one object that joins a terrain server, keeps the world's
+// replica exact (every op applied and its world hash checked, repairs and snapshots when not),
+// sends the player's deformations, and tessellates the terrain for the game's camera on a worker
+// thread, handing the game per-tile vertex and index buffers and what changed in them since it
+// last uploaded. Nothing of Asio, protobuf or the tessellator's internals is in this header
+// (C++17, the standard library only); the C ABI (terrain_client.h) is a thin layer over it.
+//
+// Threading: every call from one thread, the game's (the frame loop). The network is pumped by
+// pump() and the tessellation runs on its own worker thread; nothing here blocks but
+// waitSynced() and close().
+//
+// Coordinates: metres, x east and y north from the map's corner (vertex 0, 0), z up (heights
+// above the map's zero). Vertices come in metres in that frame; a game that is y-up swaps y and z.
+//
+// The game loop:
+//   terrain::game::Client client(options);
+//   client.connect();                           // refused at once with a reason if bad
+//   client.waitSynced(10.0);                    // a loading screen, or pump() until synced
+//   each frame: client.pump();                  // network and this frame's share of the ops
+//               client.tessellate(camera);      // the camera in, the newest finished tiles out
+//               for each tile with tileChanged(t): upload tile(t)'s dirty parts, markUploaded(t)
+//               client.requestCrater(...);      // a shot; its answer in takeAnswers()
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace terrain::game {
+
+/// Why a call did not do what it was asked; kNone when it did.
+enum class ClientError {
+    kNone = 0,
+    kBadParameter,   ///< an argument breaks a rule (the message names it)
+    kNotConnected,   ///< no link to the server is up: nothing was sent
+    kNotSynced,      ///< the world is not loaded yet (before the first join completes)
+    kTimedOut,       ///< waitSynced() ran out of time, or the connection gave up (CONNECT_TIMEOUT)
+    kClosed,         ///< the client was closed (close(), or the server's final refusal)
+    kRefusedByServer ///< the server said no (bad token, full, version; the message says which)
+};
+
+/// The name of an error ("BAD_PARAMETER", ...).
+const char* errorName(ClientError error);
+
+/// A call's outcome: error kNone, or the error and a message naming the rule broken.
+struct ClientResult {
+    ClientError error = ClientError::kNone;
+    std::string message;
+    std::uint32_t request_id = 0; ///< requests: the id their answer will carry
+    explicit operator bool() const { return error == ClientError::kNone; }
+};
+
+struct ClientOptions {
+    std::string host = "127.0.0.1";
+    std::uint16_t port = 7777;
+    /// The server's signed token for this player (its role decides whether it may deform).
+    std::string token;
+    std::string client_name = "game";
+    /// An attempt whose TCP connect takes longer is abandoned and retried (with backoff).
+    double connect_timeout_seconds = 5.0;
+    /// With no live link for this long (from connect(), or since the link was lost), the client
+    /// gives up: kTimedOut, and it stays closed. 0: keep trying.
+    double give_up_seconds = 30.0;
+    /// Reconnect when a live link drops (resuming from the replica's seq).
+    bool reconnect = true;
+    /// Ops applied per pump() at least (a burst of craters is spread over frames, each frame's
+    /// share at most a backlog / catch_up_frames more); 0: every op as soon as it arrives.
+    int ops_per_frame = 2;
+    int catch_up_frames = 8;
+    /// The tessellation's screen-space error bound (pixels) and triangle cap.
+    double tau_pixels = 1.0;
+    std::int64_t max_triangles = 400000;
+    /// Threads the tessellation worker may spread a step over (its own included); 0: min(cores -
+    /// 1, 4). The meshes are the same at any count.
+    unsigned worker_threads = 0;
+};
+
+/// The world the client holds.
+struct WorldState {
+    std::uint64_t seq = 0;        ///< the last op applied (the server numbers them from 1)
+    std::uint64_t world_hash = 0; ///< the replica's world hash at seq
+    bool loaded = false;          ///< a world is held (after the first join)
+    bool live = false;            ///< a link to the server is up and joined
+    bool synced = false;          ///< live, every op received applied, and the hashes agree
+    bool closed = false;          ///< closed for good (close(), a final refusal, give up)
+    std::uint64_t ops_applied = 0;
+    std::uint64_t hash_mismatches = 0; ///< each was repaired (repairs) or resynced (snapshots)
+    std::uint64_t repairs = 0;
+    std::uint64_t snapshots = 0;
+    double extent_x = 0.0; ///< the map's size in metres (0 until loaded)
+    double extent_y = 0.0;
+};
+
+/// The server's answer to a deformation request.
+struct OpAnswer {
+    std::uint32_t request_id = 0;
+    bool accepted = false;
+    std::uint64_t seq = 0; ///< accepted: the seq its op was given (broadcast to every client)
+    std::string reason;    ///< refused: "REASON_...: message"
+};
+
+/// What a deformation does (the server's op kinds, numbered as on the wire).
+enum class OpKind {
+    kCrater = 1,  ///< a bowl `height` deep below the ground around it, its rim `strength * height`
+    kRaise = 2,   ///< a smooth mound of signed height `height` (negative digs)
+    kFlatten = 3, ///< blends towards the absolute level `height` by `strength`, fading to the edge
+    kSmooth = 4   ///< relaxes towards the neighbours' average by `strength`, fading to the edge
+};
+
+/// A perspective camera in the world frame above (metres, z up).
+struct Camera {
+    double eye[3] = {0.0, 0.0, 100.0};
+    double forward[3] = {1.0, 0.0, 0.0}; ///< need not be unit length
+    double up[3] = {0.0, 0.0, 1.0};
+    double fovy_radians = 1.0471975511965976; ///< 60 degrees
+    int viewport_width = 1280;
+    int viewport_height = 720;
+    double near_plane = 0.5; ///< metres
+};
+
+/// One vertex, 16 bytes: position in metres (the world frame) and the unit normal packed as
+/// signed 10:10:10:2 (x in bits 0-9, y 10-19, z 20-29, each a two's-complement value over 511;
+/// OpenGL's GL_INT_2_10_10_10_REV normalised, Vulkan's VK_FORMAT_A2B10G10R10_SNORM_PACK32).
+struct Vertex {
+    float x = 0.0f;
+    float y = 0.0f;
+    float z = 0.0f;
+    std::uint32_t normal = 0;
+};
+
+/// A run [begin, end) of a tile's vertex array.
+struct VertexRun {
+    std::uint32_t begin = 0;
+    std::uint32_t end = 0;
+};
+
+/// One tile's buffers as the game draws them, and what changed since markUploaded(tile). The
+/// pointers stay valid until the next tessellate() or close().
+struct TileBuffers {
+    bool visible = false; ///< in the camera's view (draw only these)
+    const Vertex* vertices = nullptr;
+    std::uint32_t vertex_count = 0;
+    /// Three per triangle, into this tile's vertices; every triangle is drawn.
+    const std::uint32_t* indices = nullptr;
+    std::uint32_t index_count = 0;
+    // changes since markUploaded()
+    bool indices_rewritten = false; ///< upload every index
+    /// Pages of kIndicesPerPage indices written (ascending): indices [page * kIndicesPerPage,
+    /// min((page + 1) * kIndicesPerPage, index_count)). A page past index_count needs nothing.
+    const std::uint32_t* dirty_pages = nullptr;
+    std::uint32_t dirty_page_count = 0;
+    bool vertices_all_changed = false;      ///< upload every vertex
+    const VertexRun* vertex_runs = nullptr; ///< runs written (they may overlap)
+    std::uint32_t vertex_run_count = 0;
+};
+
+class Client {
+  public:
+    /// Indices per dirty page.
+    static const std::uint32_t kIndicesPerPage;
+
+    explicit Client(ClientOptions options);
+    /// Closes (joins the worker thread).
+    ~Client();
+    Client(const Client&) = delete;
+    Client& operator=(const Client&) = delete;
+
+    /// Starts connecting (returns at once). kBadParameter for options that break a rule (no
+    /// host, port 0, no token, tau or cap out of range); kClosed after close().
+    ClientResult connect();
+    /// Pumps until the world is loaded and synced, up to `timeout_seconds`: kTimedOut, or the
+    /// reason the client closed (a bad token: kRefusedByServer).
+    ClientResult waitSynced(double timeout_seconds);
+    /// Once a frame: reads the network and applies this frame's share of the ops (a burst is
+    /// spread over frames). kClosed once closed (lastError() says why).
+    ClientResult pump();
+    /// Closes the link for good and stops the worker. Later calls answer kClosed.
+    void close();
+
+    /// A deformation centred at (x, y) metres of `radius` metres (a crater's footprint, rim
+    /// included, is twice that): `height` and `strength` (in [0, 1]) as OpKind says. Refused at
+    /// once, nothing sent: kNotConnected, kNotSynced, kBadParameter (the rule broken), kClosed.
+    /// Sent: the id its answer (takeAnswers()) will carry; the server may still refuse it.
+    ClientResult
+    requestOp(OpKind kind, double x, double y, double radius, double height, double strength = 1.0);
+    /// A crater `depth` metres deep with a rim `rim_ratio * depth` high (0.375 puts the cavity's
+    /// volume back as ejecta).
+    ClientResult
+    requestCrater(double x, double y, double radius, double depth, double rim_ratio = 0.3) {
+        return requestOp(OpKind::kCrater, x, y, radius, depth, rim_ratio);
+    }
+    /// The server's answers that arrived since the last call.
+    std::vector<OpAnswer> takeAnswers();
+
+    WorldState world() const;
+    /// The last error (a refusal, a lost link, a give up); "" if none yet.
+    const std::string& lastError() const;
+    /// The ground height at (x, y) metres in the replica (exact, not the mesh); false off the
+    /// map or before the world is loaded.
+    bool heightAt(double x, double y, double& height_out) const;
+
+    /// The camera in, the newest finished tiles out: hands the camera to the worker (which
+    /// tessellates the newest one it has) and takes its newest finished tiles. Returns whether
+    /// any tile changed. kNotSynced before the world is loaded (nothing to draw yet).
+    ClientResult tessellate(const Camera& camera, bool* changed = nullptr);
+    /// Frames the tiles are behind the newest camera (0: the worker keeps up).
+    std::uint64_t meshLag() const;
+    /// The tessellation's error bound for the tiles held, at their camera (pixels).
+    double meshErrorPixels() const;
+
+    /// Tiles (0 before the first tessellate() with a world).
+    std::int32_t tileCount() const;
+    /// A tile's buffers and changes; kBadParameter for a tile out of range.
+    ClientResult tile(std::int32_t tile, TileBuffers& out) const;
+    /// Whether the tile changed since markUploaded(tile).
+    bool tileChanged(std::int32_t tile) const;
+    /// The game uploaded the tile's changes: they are forgotten.
+    void markUploaded(std::int32_t tile);
+
+  private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+} // namespace terrain::game
