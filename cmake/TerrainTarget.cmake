@@ -12,6 +12,11 @@ function(terrain_configure_target target)
             -Wall -Wextra -Wpedantic -Wshadow -Wconversion -Wsign-conversion
             -Wnon-virtual-dtor -Wold-style-cast -Wnull-dereference)
     endif()
+    if(TERRAIN_PIC AND CMAKE_CXX_COMPILER_ID MATCHES "GNU|Clang")
+        # position-independent, but our functions are never interposed: keep inlining and direct
+        # calls between them as in a plain executable
+        target_compile_options(${target} PRIVATE -fno-semantic-interposition)
+    endif()
     if(TERRAIN_WERROR)
         set_target_properties(${target} PROPERTIES COMPILE_WARNING_AS_ERROR ON)
     endif()

@@ -1,10 +1,12 @@
-// Client: a facade over the replica, the connection (on an io_context the game's thread
-// polls) and the tessellation worker, with the frame's copy of the tiles in metres.
+// Session: the implementation behind the C ABI (terrain_client.h): a facade over the replica, the
+// connection (on an io_context the game's thread polls) and the tessellation worker, with the
+// frame's copy of the tiles in metres.
+
+#include "game_session.h"
 
 #include <terrain/client/connection.h>
 #include <terrain/client/replica.h>
 #include <terrain/client/tessellation_worker.h>
-#include <terrain/game/client.h>
 #include <terrain/roam/drawn_mesh.h>
 #include <terrain/surface_query.h>
 
@@ -13,29 +15,9 @@
 #include <cmath>
 #include <utility>
 
-namespace terrain::game {
+namespace terrain::game::detail {
 
-const std::uint32_t Client::kIndicesPerPage = roam::MeshDelta::kPageIndices;
-
-const char* errorName(ClientError error) {
-    switch (error) {
-    case ClientError::kNone:
-        return "NONE";
-    case ClientError::kBadParameter:
-        return "BAD_PARAMETER";
-    case ClientError::kNotConnected:
-        return "NOT_CONNECTED";
-    case ClientError::kNotSynced:
-        return "NOT_SYNCED";
-    case ClientError::kTimedOut:
-        return "TIMED_OUT";
-    case ClientError::kClosed:
-        return "CLOSED";
-    case ClientError::kRefusedByServer:
-        return "REFUSED_BY_SERVER";
-    }
-    return "UNKNOWN";
-}
+const std::uint32_t Session::kIndicesPerPage = roam::MeshDelta::kPageIndices;
 
 namespace {
 
@@ -49,7 +31,7 @@ bool finite3(const double v[3]) {
 
 } // namespace
 
-struct Client::Impl {
+struct Session::Impl {
     explicit Impl(ClientOptions o) : options(std::move(o)) {}
 
     ClientOptions options;
@@ -60,6 +42,7 @@ struct Client::Impl {
     roam::DrawnMesh mesh{roam::DrawnMesh::Units::kMetres};
     std::vector<OpAnswer> answers;
     std::string last_error;
+    std::string closed_reason; // why it closed, as the closed client's answers say
     bool closed = false;
     ClientError closed_because = ClientError::kClosed;
 
@@ -73,13 +56,14 @@ struct Client::Impl {
             return;
         closed = true;
         last_error = connection->lastDisconnect();
+        closed_reason = last_error;
         closed_because = last_error.rfind("CONNECT_TIMEOUT", 0) == 0
                              ? ClientError::kTimedOut
                              : ClientError::kRefusedByServer;
     }
 
     ClientResult closedResult() const {
-        return fail(closed_because, "the client is closed: " + last_error);
+        return fail(closed_because, "the client is closed: " + closed_reason);
     }
 
     void poll() {
@@ -109,13 +93,13 @@ struct Client::Impl {
     }
 };
 
-Client::Client(ClientOptions options) : impl_(std::make_unique<Impl>(std::move(options))) {}
+Session::Session(ClientOptions options) : impl_(std::make_unique<Impl>(std::move(options))) {}
 
-Client::~Client() {
+Session::~Session() {
     close();
 }
 
-ClientResult Client::connect() {
+ClientResult Session::connect() {
     Impl& m = *impl_;
     if (m.closed)
         return m.closedResult();
@@ -142,7 +126,7 @@ ClientResult Client::connect() {
     return {};
 }
 
-ClientResult Client::waitSynced(double timeout_seconds) {
+ClientResult Session::waitSynced(double timeout_seconds) {
     Impl& m = *impl_;
     if (m.closed)
         return m.closedResult();
@@ -170,7 +154,7 @@ ClientResult Client::waitSynced(double timeout_seconds) {
     }
 }
 
-ClientResult Client::pump() {
+ClientResult Session::pump() {
     Impl& m = *impl_;
     if (m.closed)
         return m.closedResult();
@@ -183,7 +167,7 @@ ClientResult Client::pump() {
     return {};
 }
 
-void Client::close() {
+void Session::close() {
     Impl& m = *impl_;
     if (m.closed && !m.connection && !m.worker)
         return;
@@ -194,14 +178,16 @@ void Client::close() {
         m.connection.reset();
     }
     m.worker.reset();
-    if (!m.closed)
+    if (!m.closed) {
         m.last_error = "closed by the game";
+        m.closed_reason = m.last_error;
+    }
     m.closed = true;
     m.closed_because = ClientError::kClosed;
 }
 
 ClientResult
-Client::requestOp(OpKind kind, double x, double y, double radius, double height, double strength) {
+Session::requestOp(OpKind kind, double x, double y, double radius, double height, double strength) {
     Impl& m = *impl_;
     if (m.closed)
         return m.closedResult();
@@ -227,13 +213,13 @@ Client::requestOp(OpKind kind, double x, double y, double radius, double height,
     return r;
 }
 
-std::vector<OpAnswer> Client::takeAnswers() {
+std::vector<OpAnswer> Session::takeAnswers() {
     std::vector<OpAnswer> out;
     out.swap(impl_->answers);
     return out;
 }
 
-WorldState Client::world() const {
+WorldState Session::world() const {
     const Impl& m = *impl_;
     WorldState w;
     w.loaded = m.replica.ready();
@@ -254,11 +240,15 @@ WorldState Client::world() const {
     return w;
 }
 
-const std::string& Client::lastError() const {
+const std::string& Session::lastError() const {
     return impl_->last_error;
 }
 
-bool Client::heightAt(double x, double y, double& height_out) const {
+void Session::noteError(std::string message) {
+    impl_->last_error = std::move(message);
+}
+
+bool Session::heightAt(double x, double y, double& height_out) const {
     const Impl& m = *impl_;
     if (!m.replica.ready() || !std::isfinite(x) || !std::isfinite(y))
         return false;
@@ -269,7 +259,7 @@ bool Client::heightAt(double x, double y, double& height_out) const {
     return true;
 }
 
-ClientResult Client::tessellate(const Camera& camera, bool* changed) {
+ClientResult Session::tessellate(const Camera& camera, bool* changed) {
     Impl& m = *impl_;
     if (changed != nullptr)
         *changed = false;
@@ -314,19 +304,19 @@ ClientResult Client::tessellate(const Camera& camera, bool* changed) {
     return {};
 }
 
-std::uint64_t Client::meshLag() const {
+std::uint64_t Session::meshLag() const {
     return impl_->worker ? impl_->worker->lag() : 0;
 }
 
-double Client::meshErrorPixels() const {
+double Session::meshErrorPixels() const {
     return impl_->worker ? impl_->worker->taken().stats.error_bound_pixels : 0.0;
 }
 
-std::int32_t Client::tileCount() const {
+std::int32_t Session::tileCount() const {
     return impl_->worker ? impl_->mesh.tileCount() : 0;
 }
 
-ClientResult Client::tile(std::int32_t tile, TileBuffers& out) const {
+ClientResult Session::tile(std::int32_t tile, TileBuffers& out) const {
     const roam::DrawnMesh& mesh = impl_->mesh;
     if (tile < 0 || tile >= tileCount())
         return fail(
@@ -353,7 +343,7 @@ ClientResult Client::tile(std::int32_t tile, TileBuffers& out) const {
     return {};
 }
 
-bool Client::tileChanged(std::int32_t tile) const {
+bool Session::tileChanged(std::int32_t tile) const {
     if (tile < 0 || tile >= tileCount())
         return false;
     const roam::DrawnMesh& mesh = impl_->mesh;
@@ -361,9 +351,9 @@ bool Client::tileChanged(std::int32_t tile) const {
            !mesh.vertexChanges(tile).empty();
 }
 
-void Client::markUploaded(std::int32_t tile) {
+void Session::markUploaded(std::int32_t tile) {
     if (tile >= 0 && tile < tileCount())
         impl_->mesh.takeChanges(tile);
 }
 
-} // namespace terrain::game
+} // namespace terrain::game::detail
