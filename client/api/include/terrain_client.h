@@ -137,8 +137,8 @@ typedef struct terrain_tile {
 } terrain_tile;
 
 TERRAIN_API uint32_t terrain_abi_version(void);
-/* "OK", "BAD_PARAMETER", ...; "UNKNOWN" for a value not above. */
-TERRAIN_API const char* terrain_status_name(terrain_status status);
+/* "OK", "BAD_PARAMETER", ... for a terrain_status; "UNKNOWN" for any other value. */
+TERRAIN_API const char* terrain_status_name(int status);
 /* Indices per dirty page. */
 TERRAIN_API uint32_t terrain_indices_per_page(void);
 
@@ -171,11 +171,13 @@ terrain_client_world(const terrain_client* client, terrain_world_state* out);
 TERRAIN_API terrain_status
 terrain_client_height_at(const terrain_client* client, double x, double y, double* height_out);
 
-/* Sends a deformation; refused at once (nothing sent) with NOT_CONNECTED, NOT_SYNCED,
- * BAD_PARAMETER or CLOSED. request_id (may be NULL) gets the id its answer will carry. */
+/* Sends a deformation of kind `kind` (a terrain_op_kind, passed as an int so that any value a
+ * foreign caller passes is checked, not undefined); refused at once (nothing sent) with
+ * NOT_CONNECTED, NOT_SYNCED, BAD_PARAMETER or CLOSED. request_id (may be NULL) gets the id its
+ * answer will carry. */
 TERRAIN_API terrain_status terrain_client_request_op(
     terrain_client* client,
-    terrain_op_kind kind,
+    int kind,
     double x,
     double y,
     double radius,

@@ -65,7 +65,7 @@ uint32_t terrain_abi_version(void) {
     return TERRAIN_CLIENT_ABI_VERSION;
 }
 
-const char* terrain_status_name(terrain_status status) {
+const char* terrain_status_name(int status) {
     switch (status) {
     case TERRAIN_OK:
         return "OK";
@@ -223,7 +223,7 @@ terrain_client_height_at(const terrain_client* c, double x, double y, double* he
 
 terrain_status terrain_client_request_op(
     terrain_client* c,
-    terrain_op_kind kind,
+    int kind,
     double x,
     double y,
     double radius,

@@ -50,7 +50,7 @@ enum class ClientError {
 
 /// The name of an error ("BAD_PARAMETER", ...).
 inline const char* errorName(ClientError error) {
-    return terrain_status_name(static_cast<terrain_status>(error));
+    return terrain_status_name(static_cast<int>(error));
 }
 
 /// A call's outcome: error kNone, or the error and a message naming the rule broken.
@@ -208,7 +208,7 @@ class Client {
         OpKind kind, double x, double y, double radius, double height, double strength = 1.0) {
         std::uint32_t id = 0;
         ClientResult r = result(terrain_client_request_op(
-            client_, static_cast<terrain_op_kind>(kind), x, y, radius, height, strength, &id));
+            client_, static_cast<int>(kind), x, y, radius, height, strength, &id));
         r.request_id = id;
         return r;
     }
