@@ -13,9 +13,12 @@ function(terrain_configure_target target)
             -Wnon-virtual-dtor -Wold-style-cast -Wnull-dereference)
     endif()
     if(TERRAIN_PIC AND CMAKE_CXX_COMPILER_ID MATCHES "GNU|Clang")
-        # position-independent, but our functions are never interposed: keep inlining and direct
-        # calls between them as in a plain executable
+        # position-independent, but our functions are never interposed and never exported (the
+        # one shared library exports its C ABI by a version script): hidden, so that the code
+        # calls and reads them directly, as in a plain executable
         target_compile_options(${target} PRIVATE -fno-semantic-interposition)
+        set_target_properties(${target} PROPERTIES
+            CXX_VISIBILITY_PRESET hidden VISIBILITY_INLINES_HIDDEN ON)
     endif()
     if(TERRAIN_WERROR)
         set_target_properties(${target} PROPERTIES COMPILE_WARNING_AS_ERROR ON)
