@@ -14,9 +14,10 @@ if(TERRAIN_PIC)
         LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} NAMELINK_COMPONENT Development
         INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
     install(FILES ${PROJECT_SOURCE_DIR}/client/api/include/terrain_client.h
+        ${PROJECT_SOURCE_DIR}/client/api/include/terrain_replica.h
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
     install(FILES ${PROJECT_SOURCE_DIR}/client/api/include/terrain/game/client.h
-        DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/terrain/game)
+        ${PROJECT_SOURCE_DIR}/client/api/include/terrain/game/replica.h DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/terrain/game)
     set(package_dir ${CMAKE_INSTALL_LIBDIR}/cmake/terrain)
     install(EXPORT terrainTargets NAMESPACE terrain:: DESTINATION ${package_dir})
     configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/terrainConfig.cmake.in

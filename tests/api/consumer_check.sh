@@ -45,6 +45,14 @@ printf '#include <terrain_client.h>\nint main(void) { return terrain_abi_version
     > "$work/c99.c"
 cc -std=c99 -Wall -Wextra -pedantic -Werror -I"$prefix/include" -c "$work/c99.c" -o "$work/c99.o" \
     || fail "terrain_client.h as C99"
+printf '#include <terrain_replica.h>\nint main(void) { terrain_replica* r = 0; return terrain_replica_create(&r) == TERRAIN_OK ? 0 : 1; }\n' \
+    > "$work/replica_c99.c"
+cc -std=c99 -Wall -Wextra -pedantic -Werror -I"$prefix/include" -c "$work/replica_c99.c" \
+    -o "$work/replica_c99.o" || fail "terrain_replica.h as C99"
+printf '#include <terrain/game/replica.h>\nint main() { terrain::game::Replica r; return r.state().loaded; }\n' \
+    > "$work/replica_cxx17.cpp"
+c++ -std=c++17 -Wall -Wextra -pedantic -Werror -I"$prefix/include" -c "$work/replica_cxx17.cpp" \
+    -o "$work/replica_cxx17.o" || fail "terrain/game/replica.h as C++17"
 printf '#include <terrain/game/client.h>\nint main() { return terrain::game::Client::indicesPerPage() > 0 ? 0 : 1; }\n' \
     > "$work/cxx17.cpp"
 c++ -std=c++17 -Wall -Wextra -pedantic -Werror -I"$prefix/include" -c "$work/cxx17.cpp" \

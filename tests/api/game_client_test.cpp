@@ -311,6 +311,28 @@ TEST(GameClientC, PythonThroughCtypesJoinsDeformsAndHoldsTheServersWorld) {
     EXPECT_EQ(r.status, 0) << r.out;
     EXPECT_NE(r.out.find("python ctypes: seq 20 hash "), std::string::npos) << r.out;
 }
+
+// tests/api/test_replica_abi.py: the replica alone (terrain_replica.h) follows the server's
+// journal from its snapshot files, the procedural genesis and a genesis delta, every op's hash
+// checked; a diverged replica is repaired from the server's tile records
+TEST(ReplicaC, PythonFollowsTheServersJournalThroughTheReplicaAlone) {
+    if (run("python3 -c 'import ctypes'").status != 0)
+        GTEST_SKIP() << "no python3 with ctypes here (.ci/setup installs python3)";
+    LiveServer srv(
+        257, {"--durability", "write", "--snapshot-every", "30", "--snapshot-replay-seconds", "0"});
+    ASSERT_NE(srv.port(), 0);
+    const Ran r =
+        run(std::string("python3 ") + TERRAIN_PYTHON_REPLICA_TEST + " " + TERRAIN_CLIENT_LIBRARY +
+            " " + std::to_string(srv.port()) + " " + srv.token(53, "deformer") + " " +
+            srv.dataDir() + " 1 257");
+    EXPECT_EQ(r.status, 0) << r.out;
+    // one replica follows all 130 ops; the others follow from later snapshots
+    unsigned followed = 0;
+    const auto at = r.out.find("python replica: ");
+    ASSERT_NE(at, std::string::npos) << r.out;
+    ASSERT_EQ(std::sscanf(r.out.c_str() + at, "python replica: %u ops followed", &followed), 1);
+    EXPECT_GE(followed, 260u) << r.out;
+}
 #endif
 
 } // namespace

@@ -22,8 +22,9 @@ namespace terrain::testing {
 
 class LiveServer {
   public:
-    /// `terrain-server serve` on a loopback port of its choosing, no journal, a `size` map.
-    explicit LiveServer(int size = 257) {
+    /// `terrain-server serve` on a loopback port of its choosing, a `size` map, with
+    /// `serve_options` (no journal unless they say otherwise: its data dir is dataDir()).
+    explicit LiveServer(int size = 257, std::vector<std::string> serve_options = {"--no-journal"}) {
         dir_ = std::filesystem::temp_directory_path() /
                ("terrain-api-" + std::to_string(getpid()) + "-" + std::to_string(++count()));
         std::filesystem::create_directories(dir_);
@@ -40,11 +41,13 @@ class LiveServer {
             "0",
             "--port-file",
             port_file,
-            "--no-journal",
+            "--data-dir",
+            dataDir(),
             "--size",
             std::to_string(size),
             "--deform-rate",
             "100000"};
+        args.insert(args.end(), serve_options.begin(), serve_options.end());
         std::vector<char*> argv;
         for (std::string& a : args)
             argv.push_back(a.data());
@@ -77,6 +80,9 @@ class LiveServer {
     }
     LiveServer(const LiveServer&) = delete;
     LiveServer& operator=(const LiveServer&) = delete;
+
+    /// The journal's directory, when the options keep one.
+    std::string dataDir() const { return (dir_ / "data").string(); }
 
     /// 0 if the server did not start.
     std::uint16_t port() const { return port_; }

@@ -9,46 +9,7 @@ import ctypes as C
 import subprocess
 import sys
 
-
-class Options(C.Structure):
-    _fields_ = [("host", C.c_char_p), ("port", C.c_uint16), ("token", C.c_char_p),
-                ("client_name", C.c_char_p), ("connect_timeout_seconds", C.c_double),
-                ("give_up_seconds", C.c_double), ("reconnect", C.c_int),
-                ("ops_per_frame", C.c_int), ("catch_up_frames", C.c_int),
-                ("tau_pixels", C.c_double), ("max_triangles", C.c_int64),
-                ("worker_threads", C.c_uint32)]
-
-
-class World(C.Structure):
-    _fields_ = [("seq", C.c_uint64), ("world_hash", C.c_uint64), ("loaded", C.c_int),
-                ("live", C.c_int), ("synced", C.c_int), ("closed", C.c_int),
-                ("ops_applied", C.c_uint64), ("hash_mismatches", C.c_uint64),
-                ("repairs", C.c_uint64), ("snapshots", C.c_uint64),
-                ("extent_x", C.c_double), ("extent_y", C.c_double)]
-
-
-class Answer(C.Structure):
-    _fields_ = [("request_id", C.c_uint32), ("accepted", C.c_int), ("seq", C.c_uint64),
-                ("reason", C.c_char_p)]
-
-
-class Camera(C.Structure):
-    _fields_ = [("eye", C.c_double * 3), ("forward", C.c_double * 3), ("up", C.c_double * 3),
-                ("fovy_radians", C.c_double), ("viewport_width", C.c_int),
-                ("viewport_height", C.c_int), ("near_plane", C.c_double)]
-
-
-class Vertex(C.Structure):
-    _fields_ = [("x", C.c_float), ("y", C.c_float), ("z", C.c_float), ("normal", C.c_uint32)]
-
-
-class Tile(C.Structure):
-    _fields_ = [("visible", C.c_int), ("vertices", C.POINTER(Vertex)),
-                ("vertex_count", C.c_uint32), ("indices", C.POINTER(C.c_uint32)),
-                ("index_count", C.c_uint32), ("indices_rewritten", C.c_int),
-                ("dirty_pages", C.POINTER(C.c_uint32)), ("dirty_page_count", C.c_uint32),
-                ("vertices_all_changed", C.c_int), ("vertex_runs", C.c_void_p),
-                ("vertex_run_count", C.c_uint32)]
+from terrain_ctypes import Answer, Camera, Options, Tile, World
 
 
 def main():
@@ -64,7 +25,7 @@ def main():
             raise SystemExit("%s: %s: %s" % (what, lib.terrain_status_name(status).decode(),
                                              lib.terrain_client_last_error(handle).decode()))
 
-    assert lib.terrain_abi_version() == 1
+    assert lib.terrain_abi_version() == 2
     options = Options()
     lib.terrain_client_options_init(C.byref(options))
     assert options.port == 7777 and options.tau_pixels == 1.0

@@ -46,8 +46,9 @@
 extern "C" {
 #endif
 
-/* This header's ABI version; terrain_abi_version() is the library's. */
-#define TERRAIN_CLIENT_ABI_VERSION 1u
+/* This header's ABI version; terrain_abi_version() is the library's. 2 added the replica on its
+ * own (terrain_replica.h) and the statuses BAD_DATA and SEQ_GAP; nothing of 1 changed. */
+#define TERRAIN_CLIENT_ABI_VERSION 2u
 
 typedef enum terrain_status {
     TERRAIN_OK = 0,
@@ -57,10 +58,12 @@ typedef enum terrain_status {
     TERRAIN_TIMED_OUT = 4,         /* a wait ran out, or the client gave up (CONNECT_TIMEOUT) */
     TERRAIN_CLOSED = 5,            /* closed (terrain_client_close or a final refusal) */
     TERRAIN_REFUSED_BY_SERVER = 6, /* bad token, wrong version, ... (the message says which) */
-    TERRAIN_INTERNAL = 7           /* out of memory or a bug: the message says what was thrown */
+    TERRAIN_INTERNAL = 7,          /* out of memory or a bug: the message says what was thrown */
+    TERRAIN_BAD_DATA = 8,          /* bytes or an op that a rule refuses (terrain_replica.h) */
+    TERRAIN_SEQ_GAP = 9            /* an op past seq + 1: ops were missed (terrain_replica.h) */
 } terrain_status;
 
-/* Op kinds, numbered as on the wire. */
+/* Op kinds: the wire's kind + 1, as in the journal (0 is no kind). */
 typedef enum terrain_op_kind {
     TERRAIN_OP_CRATER = 1,  /* a bowl `height` deep, its rim `strength * height` high */
     TERRAIN_OP_RAISE = 2,   /* a smooth mound of signed height `height` */

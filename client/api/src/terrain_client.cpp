@@ -1,15 +1,15 @@
 // The C ABI (terrain_client.h) over the game client's Session: argument checks, status codes,
 // messages kept per client, and no exception across it.
 
+#include "abi_guard.h"
 #include "game_session.h"
 
 #include <terrain_client.h>
 
 #include <cmath>
 #include <deque>
-#include <exception>
-#include <new>
 #include <string>
+#include <utility>
 
 using terrain::game::ClientError;
 using terrain::game::ClientResult;
@@ -42,19 +42,12 @@ terrain_status badArgument(terrain_client* c, const char* what) {
 
 // Runs `f` with every exception turned into TERRAIN_INTERNAL and its message kept.
 template <typename F> terrain_status guarded(terrain_client* c, F&& f) {
-    try {
-        return f();
-    } catch (const std::bad_alloc&) {
-        if (c != nullptr)
-            c->session.noteError("INTERNAL: out of memory");
-    } catch (const std::exception& e) {
-        if (c != nullptr)
-            c->session.noteError(std::string("INTERNAL: ") + e.what());
-    } catch (...) {
-        if (c != nullptr)
-            c->session.noteError("INTERNAL: an unknown exception");
-    }
-    return TERRAIN_INTERNAL;
+    return terrain::game::detail::guardedCall(
+        [c](std::string message) {
+            if (c != nullptr)
+                c->session.noteError(std::move(message));
+        },
+        std::forward<F>(f));
 }
 
 } // namespace
@@ -83,6 +76,10 @@ const char* terrain_status_name(int status) {
         return "REFUSED_BY_SERVER";
     case TERRAIN_INTERNAL:
         return "INTERNAL";
+    case TERRAIN_BAD_DATA:
+        return "BAD_DATA";
+    case TERRAIN_SEQ_GAP:
+        return "SEQ_GAP";
     }
     return "UNKNOWN";
 }

@@ -195,17 +195,20 @@ Result<std::vector<TileRecord>> decodeTiles(
     std::uint64_t raw_bytes,
     const WorldSpec& spec,
     std::size_t max_tiles) {
-    // an entry is at most its u32 length, then tx, ty and the patch count, 65 x 65 heights and
-    // displacements, and 64 x 64 patches of 102 bytes (the length was missing: a reply whose
-    // every cell is patched was refused by 4 bytes a tile)
-    constexpr std::uint64_t kMaxTileRecordBytes = 4 + 12 + 2 * 65 * 65 * 4 + 64 * 64 * 102;
+    // (kMaxTileEntryBytes had lost the length once: a reply whose every cell is patched was
+    // refused by 4 bytes a tile)
     Result<std::vector<std::uint8_t>> raw = decompress(
         compressed, static_cast<std::size_t>(raw_bytes),
-        static_cast<std::size_t>(kMaxTileRecordBytes * max_tiles));
+        static_cast<std::size_t>(kMaxTileEntryBytes * max_tiles));
     if (!raw)
         return raw.error();
+    return decodeTileRecords(*raw, spec, max_tiles);
+}
+
+Result<std::vector<TileRecord>>
+decodeTileRecords(std::span<const std::uint8_t> raw, const WorldSpec& spec, std::size_t max_tiles) {
     std::vector<TileRecord> records;
-    std::span<const std::uint8_t> rest(*raw);
+    std::span<const std::uint8_t> rest(raw);
     while (!rest.empty()) {
         if (records.size() == max_tiles)
             return makeError(ErrorCode::kBadFormat, "more tiles than the map has");

@@ -3,6 +3,7 @@
 
 #include <zstd.h>
 
+#include <algorithm>
 #include <memory>
 #include <string>
 
@@ -45,6 +46,34 @@ Result<std::vector<std::uint8_t>> decompress(
     if (n != expected_raw_bytes)
         return makeError(ErrorCode::kSizeMismatch, "zstd frame decompressed to the wrong size");
     return out;
+}
+
+Result<RawBytes>
+decompressFrame(std::span<const std::uint8_t> compressed, std::size_t max_raw_bytes) {
+    const unsigned long long content =
+        ZSTD_getFrameContentSize(compressed.data(), compressed.size());
+    if (content == ZSTD_CONTENTSIZE_ERROR || content == ZSTD_CONTENTSIZE_UNKNOWN)
+        return makeError(ErrorCode::kBadFormat, "not a zstd frame with a declared content size");
+    if (content > max_raw_bytes)
+        return makeError(
+            ErrorCode::kOutOfRange, "declared size of " + std::to_string(content) +
+                                        " bytes is above the limit of " +
+                                        std::to_string(max_raw_bytes));
+    RawBytes out;
+    out.size = static_cast<std::size_t>(content);
+    out.data.reset(new std::uint8_t[std::max<std::size_t>(out.size, 1)]);
+    const std::size_t n =
+        ZSTD_decompress(out.data.get(), out.size, compressed.data(), compressed.size());
+    if (ZSTD_isError(n))
+        return makeError(ErrorCode::kBadFormat, std::string("zstd: ") + ZSTD_getErrorName(n));
+    if (n != out.size)
+        return makeError(ErrorCode::kSizeMismatch, "zstd frame decompressed to the wrong size");
+    return out;
+}
+
+bool isZstdFrame(std::span<const std::uint8_t> bytes) {
+    return bytes.size() >= 4 && bytes[0] == 0x28 && bytes[1] == 0xB5 && bytes[2] == 0x2F &&
+           bytes[3] == 0xFD;
 }
 
 } // namespace terrain::wire

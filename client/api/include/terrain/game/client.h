@@ -45,7 +45,9 @@ enum class ClientError {
     kTimedOut = TERRAIN_TIMED_OUT,         ///< a wait ran out, or the client gave up
     kClosed = TERRAIN_CLOSED,              ///< closed (close(), or a final refusal)
     kRefusedByServer = TERRAIN_REFUSED_BY_SERVER, ///< bad token, version (the message says which)
-    kInternal = TERRAIN_INTERNAL ///< out of memory or a bug (the message says what)
+    kInternal = TERRAIN_INTERNAL, ///< out of memory or a bug (the message says what)
+    kBadData = TERRAIN_BAD_DATA,  ///< bytes or an op a rule refuses (the replica alone)
+    kSeqGap = TERRAIN_SEQ_GAP     ///< an op past seq + 1 (the replica alone)
 };
 
 /// The name of an error ("BAD_PARAMETER", ...).

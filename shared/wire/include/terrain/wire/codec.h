@@ -76,5 +76,11 @@ Result<std::vector<TileRecord>> decodeTiles(
     std::uint64_t raw_bytes,
     const WorldSpec& spec,
     std::size_t max_tiles);
+/// decodeTiles() after the zstd frame: the records themselves, each behind its u32 length.
+Result<std::vector<TileRecord>>
+decodeTileRecords(std::span<const std::uint8_t> raw, const WorldSpec& spec, std::size_t max_tiles);
+/// The most bytes one entry of decodeTileRecords() takes: the u32 length, then a tile record
+/// with every cell patched.
+inline constexpr std::uint64_t kMaxTileEntryBytes = 4 + 12 + 2 * 65 * 65 * 4 + 64 * 64 * 102;
 
 } // namespace terrain::wire

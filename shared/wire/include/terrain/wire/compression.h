@@ -7,6 +7,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -24,5 +25,22 @@ Result<std::vector<std::uint8_t>> decompress(
     std::span<const std::uint8_t> compressed,
     std::size_t expected_raw_bytes,
     std::size_t max_raw_bytes);
+
+/// Bytes decompressed into a buffer that is never initialised: a frame that declares more than
+/// it holds costs only the pages it fills.
+struct RawBytes {
+    std::unique_ptr<std::uint8_t[]> data;
+    std::size_t size = 0;
+    std::span<const std::uint8_t> bytes() const { return {data.get(), size}; }
+};
+
+/// Decompresses a frame whose size nobody announced: its own declared content size, which must
+/// be at most max_raw_bytes. Errors: kBadFormat (not one zstd frame with a declared content
+/// size, or corrupt), kOutOfRange (above the limit), kSizeMismatch (another size than declared).
+Result<RawBytes>
+decompressFrame(std::span<const std::uint8_t> compressed, std::size_t max_raw_bytes);
+
+/// True when the bytes begin with zstd's frame magic (28 B5 2F FD).
+bool isZstdFrame(std::span<const std::uint8_t> bytes);
 
 } // namespace terrain::wire
