@@ -73,10 +73,24 @@ template <typename F> bool frames(game::Client& client, const game::Camera& came
     return done();
 }
 
-TEST(GameClient, JoinsDeformsFollowsTheServerExactlyAndDrawsTilesInMetres) {
+// Each test with the network pumped by the game (pump()) and on the client's own thread.
+class GameClientOn : public ::testing::TestWithParam<bool> {
+  protected:
+    static game::ClientOptions options(std::uint16_t port, std::string tok) {
+        game::ClientOptions o = optionsFor(port, std::move(tok));
+        o.network_thread = GetParam();
+        return o;
+    }
+};
+INSTANTIATE_TEST_SUITE_P(
+    , GameClientOn, ::testing::Bool(), [](const ::testing::TestParamInfo<bool>& info) {
+        return info.param ? "ItsOwnNetworkThread" : "TheGamesThread";
+    });
+
+TEST_P(GameClientOn, JoinsDeformsFollowsTheServerExactlyAndDrawsTilesInMetres) {
     LiveServer srv(257);
     ASSERT_NE(srv.port(), 0) << "the server did not start";
-    game::Client client(optionsFor(srv.port(), srv.token(41, "deformer")));
+    game::Client client(options(srv.port(), srv.token(41, "deformer")));
     // nothing to do before connect()
     EXPECT_EQ(client.pump().error, ClientError::kNotConnected);
     EXPECT_EQ(client.requestCrater(50, 50, 3, 1).error, ClientError::kNotConnected);
@@ -198,6 +212,38 @@ TEST(GameClient, JoinsDeformsFollowsTheServerExactlyAndDrawsTilesInMetres) {
         << client.lastError();
 }
 
+// A game that draws no frame for a while (a loading screen, a stop in a debugger) while others
+// fire: the link holds, nothing is resynced, and the first pump after finds the server's world.
+TEST_P(GameClientOn, AGameThatStopsPumpingFindsTheServersWorldAfterwards) {
+    LiveServer srv(257);
+    game::ClientOptions quiet = options(srv.port(), srv.token(43, "viewer"));
+    quiet.ops_per_frame = 0; // every op that arrived, in the first pump
+    game::Client watcher(quiet);
+    game::Client shooter(optionsFor(srv.port(), srv.token(44, "deformer")));
+    ASSERT_TRUE(watcher.connect());
+    ASSERT_TRUE(shooter.connect());
+    ASSERT_TRUE(watcher.waitSynced(20.0));
+    ASSERT_TRUE(shooter.waitSynced(20.0));
+    for (int i = 0; i < 40; ++i)
+        ASSERT_TRUE(shooter.requestCrater(20.0 + 5 * i, 30.0 + 4 * i, 3.0, 1.0));
+    ASSERT_TRUE(frames(shooter, lookingAcross(20, 20, 40), 4000, [&] {
+        return shooter.world().seq == 40 && shooter.world().synced;
+    }));
+    std::this_thread::sleep_for(std::chrono::milliseconds(300)); // the watcher's stall, longer
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (watcher.world().seq < 40 && std::chrono::steady_clock::now() < deadline) {
+        ASSERT_TRUE(watcher.pump());
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    const game::WorldState w = watcher.world();
+    EXPECT_EQ(w.seq, 40u);
+    EXPECT_EQ(w.world_hash, shooter.world().world_hash);
+    EXPECT_EQ(w.world_hash, srv.world().hash);
+    EXPECT_EQ(w.snapshots, 1u) << "the join only: nothing was resynced";
+    EXPECT_EQ(w.hash_mismatches, 0u);
+    EXPECT_TRUE(w.live);
+}
+
 TEST(GameClient, BadOptionsAreRefusedAtConnectByName) {
     auto refused = [](game::ClientOptions o) {
         game::Client client(std::move(o));
@@ -220,9 +266,9 @@ TEST(GameClient, BadOptionsAreRefusedAtConnectByName) {
     EXPECT_NE(refused(o).find("timeouts"), std::string::npos);
 }
 
-TEST(GameClient, ABadTokenIsRefusedByTheServerAndClosesTheClient) {
+TEST_P(GameClientOn, ABadTokenIsRefusedByTheServerAndClosesTheClient) {
     LiveServer srv(129);
-    game::Client client(optionsFor(srv.port(), "not-a-token"));
+    game::Client client(options(srv.port(), "not-a-token"));
     ASSERT_TRUE(client.connect());
     const game::ClientResult r = client.waitSynced(10.0);
     EXPECT_EQ(r.error, ClientError::kRefusedByServer) << r.message;
@@ -231,8 +277,8 @@ TEST(GameClient, ABadTokenIsRefusedByTheServerAndClosesTheClient) {
     EXPECT_EQ(client.pump().error, ClientError::kRefusedByServer);
 }
 
-TEST(GameClient, ADeadServerTimesOutInsteadOfRetryingForever) {
-    game::ClientOptions o = optionsFor(nothingListens(), "t");
+TEST_P(GameClientOn, ADeadServerTimesOutInsteadOfRetryingForever) {
+    game::ClientOptions o = options(nothingListens(), "t");
     o.give_up_seconds = 0.5;
     game::Client client(o);
     ASSERT_TRUE(client.connect());
@@ -243,9 +289,9 @@ TEST(GameClient, ADeadServerTimesOutInsteadOfRetryingForever) {
     EXPECT_TRUE(client.world().closed);
 }
 
-TEST(GameClient, AViewerTokenMayWatchButItsCratersAreRefusedByTheServer) {
+TEST_P(GameClientOn, AViewerTokenMayWatchButItsCratersAreRefusedByTheServer) {
     LiveServer srv(129);
-    game::Client client(optionsFor(srv.port(), srv.token(42, "viewer")));
+    game::Client client(options(srv.port(), srv.token(42, "viewer")));
     ASSERT_TRUE(client.connect());
     ASSERT_TRUE(client.waitSynced(20.0));
     const game::ClientResult r = client.requestCrater(50, 50, 3, 1);

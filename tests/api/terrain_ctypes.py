@@ -9,7 +9,7 @@ class Options(C.Structure):
                 ("give_up_seconds", C.c_double), ("reconnect", C.c_int),
                 ("ops_per_frame", C.c_int), ("catch_up_frames", C.c_int),
                 ("tau_pixels", C.c_double), ("max_triangles", C.c_int64),
-                ("worker_threads", C.c_uint32)]
+                ("worker_threads", C.c_uint32), ("network_thread", C.c_int)]
 
 
 class World(C.Structure):

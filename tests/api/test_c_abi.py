@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """The terrain client's C ABI from Python through ctypes (the system python3 alone), as another
-language's binding would drive it: join a live server, fire craters, check the replica's world
-hash against the server's at the end, read a tile's buffers.
+language's binding would drive it: join a live server (the network on the client's own thread),
+fire craters, check the replica's world hash against the server's at the end, read a tile's
+buffers.
 
     test_c_abi.py LIBRARY PORT TOKEN SERVER_BIN   exit 0 when every check holds
 """
@@ -32,6 +33,7 @@ def main():
     options.port = port
     options.token = token.encode()
     options.give_up_seconds = 10.0
+    options.network_thread = 1  # the C and C++ examples pump the network; this uses the thread
     check(lib.terrain_client_create(C.byref(options), C.byref(handle)), "create")
     # misuse, refused at once by name: a crater before connect, a bad tile
     assert lib.terrain_client_request_op(handle, 1, C.c_double(5), C.c_double(5), C.c_double(3),

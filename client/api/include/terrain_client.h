@@ -47,7 +47,8 @@ extern "C" {
 #endif
 
 /* This header's ABI version; terrain_abi_version() is the library's. 2 added the replica on its
- * own (terrain_replica.h) and the statuses BAD_DATA and SEQ_GAP; nothing of 1 changed. */
+ * own (terrain_replica.h), the statuses BAD_DATA and SEQ_GAP, and options.network_thread (so a
+ * program built against 1 must be rebuilt). */
 #define TERRAIN_CLIENT_ABI_VERSION 2u
 
 typedef enum terrain_status {
@@ -86,6 +87,7 @@ typedef struct terrain_client_options {
     double tau_pixels;              /* 1: the tessellation's screen-space error bound */
     int64_t max_triangles;          /* 400000: the triangle cap */
     uint32_t worker_threads;        /* 0: min(cores - 1, 4) */
+    int network_thread; /* 0: pump() reads the network; 1: the client's own thread does (ABI 2) */
 } terrain_client_options;
 
 typedef struct terrain_world_state {

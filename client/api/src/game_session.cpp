@@ -1,10 +1,13 @@
 // Session: the implementation behind the C ABI (terrain_client.h): a facade over the replica, the
-// connection (on an io_context the game's thread polls) and the tessellation worker, with the
-// frame's copy of the tiles in metres.
+// connection (on an io_context the game's thread polls, or on the client's own network thread)
+// and the tessellation worker, with the frame's copy of the tiles in metres.
 
 #include "game_session.h"
 
+#include "network_thread.h"
+
 #include <terrain/client/connection.h>
+#include <terrain/client/op_pacing.h>
 #include <terrain/client/replica.h>
 #include <terrain/client/tessellation_worker.h>
 #include <terrain/roam/drawn_mesh.h>
@@ -13,6 +16,8 @@
 #include <asio.hpp>
 #include <chrono>
 #include <cmath>
+#include <deque>
+#include <thread>
 #include <utility>
 
 namespace terrain::game::detail {
@@ -36,8 +41,15 @@ struct Session::Impl {
 
     ClientOptions options;
     asio::io_context io;
-    client::Replica replica;
+    client::Replica replica; // the frame's: the worker and heightAt() read it
     std::shared_ptr<client::Connection> connection;
+    // network_thread mode: the connection and its replica on their own thread; the frame's
+    // replica replays their verified changes, paced
+    std::unique_ptr<NetworkThread> network;
+    NetworkNews latest; // the network thread's flags as last taken (changes and answers moved out)
+    std::deque<client::ReplicaChange> inbox;
+    client::OpPacer pacer;
+    std::uint64_t replay_failures = 0;
     std::unique_ptr<client::TessellationWorker> worker;
     roam::DrawnMesh mesh{roam::DrawnMesh::Units::kMetres};
     std::vector<OpAnswer> answers;
@@ -46,16 +58,27 @@ struct Session::Impl {
     bool closed = false;
     ClientError closed_because = ClientError::kClosed;
 
+    bool connected() const { return connection || network; }
     bool live() const {
+        if (network)
+            return latest.live;
         return connection && connection->state() == client::Connection::State::kLive;
+    }
+    bool synced() const {
+        if (network)
+            return latest.synced && inbox.empty() && replica.seq() == latest.seq;
+        return connection && connection->synced();
     }
 
     /// The connection closed itself (a final refusal, a give up): the client is closed.
     void noticeClosed() {
-        if (closed || !connection || connection->state() != client::Connection::State::kClosed)
+        if (closed)
+            return;
+        if (network ? !latest.closed
+                    : !connection || connection->state() != client::Connection::State::kClosed)
             return;
         closed = true;
-        last_error = connection->lastDisconnect();
+        last_error = network ? latest.last_disconnect : connection->lastDisconnect();
         closed_reason = last_error;
         closed_because = last_error.rfind("CONNECT_TIMEOUT", 0) == 0
                              ? ClientError::kTimedOut
@@ -67,9 +90,66 @@ struct Session::Impl {
     }
 
     void poll() {
+        if (network) {
+            takeNews();
+            return;
+        }
         io.restart();
         io.poll();
         noticeClosed();
+    }
+
+    /// network_thread mode: what the network thread did since the last look.
+    void takeNews() {
+        NetworkNews news = network->take();
+        for (client::ReplicaChange& c : news.changes) {
+            if (c.kind == client::ReplicaChange::Kind::kState)
+                inbox.clear(); // a whole state supersedes everything before it
+            inbox.push_back(std::move(c));
+        }
+        for (client::DeformAnswer& a : news.answers)
+            answers.push_back({a.request_id, a.accepted, a.seq, std::move(a.reason)});
+        if (!news.last_disconnect.empty() && news.last_disconnect != latest.last_disconnect)
+            last_error = news.last_disconnect;
+        news.changes.clear();
+        news.answers.clear();
+        latest = std::move(news);
+        noticeClosed();
+    }
+
+    /// network_thread mode: replays the changes taken, `ops` of the ops among them at most
+    /// (states and repairs in between come with them, in order).
+    void replay(std::size_t ops) {
+        while (!inbox.empty()) {
+            const bool is_op = inbox.front().kind == client::ReplicaChange::Kind::kOp;
+            if (is_op && ops == 0)
+                break;
+            if (!replica.replay(inbox.front()))
+                ++replay_failures; // the network's replica was checked: a bug, counted
+            inbox.pop_front();
+            if (is_op)
+                --ops;
+        }
+    }
+    std::size_t opsWaiting() const {
+        std::size_t n = 0;
+        for (const client::ReplicaChange& c : inbox)
+            n += c.kind == client::ReplicaChange::Kind::kOp ? 1 : 0;
+        return n;
+    }
+    void applyArrived() {
+        if (network)
+            replay(pacer.take(opsWaiting()));
+        else
+            connection->applyArrived();
+    }
+    void applyAllArrived() {
+        if (network) {
+            replay(inbox.size());
+            pacer.reset();
+        } else {
+            connection->applyAllArrived();
+        }
     }
 
     ClientResult validate() const {
@@ -103,7 +183,7 @@ ClientResult Session::connect() {
     Impl& m = *impl_;
     if (m.closed)
         return m.closedResult();
-    if (m.connection)
+    if (m.connected())
         return fail(ClientError::kBadParameter, "connect: already called");
     if (ClientResult r = m.validate(); !r)
         return r;
@@ -117,6 +197,11 @@ ClientResult Session::connect() {
     config.give_up_seconds = m.options.give_up_seconds;
     config.pacing.ops_per_frame = m.options.ops_per_frame;
     config.pacing.catch_up_frames = m.options.catch_up_frames;
+    if (m.options.network_thread) {
+        m.pacer = client::OpPacer(config.pacing);
+        m.network = std::make_unique<NetworkThread>(std::move(config));
+        return {};
+    }
     m.connection = std::make_shared<client::Connection>(m.io, config, m.replica);
     m.connection->on_deform_reply = [&m](const client::DeformAnswer& a) {
         m.answers.push_back({a.request_id, a.accepted, a.seq, a.reason});
@@ -130,7 +215,7 @@ ClientResult Session::waitSynced(double timeout_seconds) {
     Impl& m = *impl_;
     if (m.closed)
         return m.closedResult();
-    if (!m.connection)
+    if (!m.connected())
         return fail(ClientError::kNotConnected, "waitSynced: connect() first");
     if (!(timeout_seconds >= 0.0))
         return fail(ClientError::kBadParameter, "timeout_seconds: must be >= 0");
@@ -138,13 +223,18 @@ ClientResult Session::waitSynced(double timeout_seconds) {
                           std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                               std::chrono::duration<double>(timeout_seconds));
     while (true) {
-        m.io.restart();
-        m.io.run_for(std::chrono::milliseconds(5));
-        m.noticeClosed();
+        if (m.network) {
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+            m.takeNews();
+        } else {
+            m.io.restart();
+            m.io.run_for(std::chrono::milliseconds(5));
+            m.noticeClosed();
+        }
         if (m.closed)
             return m.closedResult();
-        m.connection->applyAllArrived(); // a loading screen draws no frames
-        if (m.connection->synced())
+        m.applyAllArrived(); // a loading screen draws no frames
+        if (m.synced())
             return {};
         if (std::chrono::steady_clock::now() >= deadline)
             return fail(
@@ -158,19 +248,23 @@ ClientResult Session::pump() {
     Impl& m = *impl_;
     if (m.closed)
         return m.closedResult();
-    if (!m.connection)
+    if (!m.connected())
         return fail(ClientError::kNotConnected, "pump: connect() first");
     m.poll();
     if (m.closed)
         return m.closedResult();
-    m.connection->applyArrived();
+    m.applyArrived();
     return {};
 }
 
 void Session::close() {
     Impl& m = *impl_;
-    if (m.closed && !m.connection && !m.worker)
+    if (m.closed && !m.connected() && !m.worker)
         return;
+    if (m.network) {
+        m.network->stop();
+        m.network.reset();
+    }
     if (m.connection) {
         m.connection->stop();
         m.io.restart();
@@ -191,7 +285,7 @@ Session::requestOp(OpKind kind, double x, double y, double radius, double height
     Impl& m = *impl_;
     if (m.closed)
         return m.closedResult();
-    if (!m.connection)
+    if (!m.connected())
         return fail(ClientError::kNotConnected, "requestOp: connect() first");
     if (static_cast<int>(kind) < 1 || static_cast<int>(kind) > 4)
         return fail(ClientError::kBadParameter, "kind: not an op kind (1-4)");
@@ -205,6 +299,8 @@ Session::requestOp(OpKind kind, double x, double y, double radius, double height
         return fail(
             ClientError::kNotConnected,
             "NOT_CONNECTED: no live link to the server; nothing was sent");
+    if (m.network) // refused in its answer if the link drops before the network thread sends it
+        return {ClientError::kNone, "", m.network->requestDeform(request)};
     const std::uint32_t id = m.connection->requestDeform(request);
     if (id == 0)
         return fail(ClientError::kNotConnected, m.connection->lastRefusal());
@@ -226,10 +322,11 @@ WorldState Session::world() const {
     w.seq = m.replica.seq();
     w.world_hash = m.replica.worldHash();
     w.live = !m.closed && m.live();
-    w.synced = !m.closed && m.connection && m.connection->synced();
+    w.synced = !m.closed && m.synced();
     w.closed = m.closed;
-    const client::ReplicaStats& s = m.replica.stats();
-    w.ops_applied = s.ops_applied;
+    // the checks are the network replica's in network_thread mode (the frame's replays them)
+    const client::ReplicaStats& s = m.network ? m.latest.stats : m.replica.stats();
+    w.ops_applied = m.replica.stats().ops_applied;
     w.hash_mismatches = s.hash_mismatches;
     w.repairs = s.repairs;
     w.snapshots = s.snapshots;

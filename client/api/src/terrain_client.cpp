@@ -104,6 +104,7 @@ void terrain_client_options_init(terrain_client_options* o) {
     o->tau_pixels = d.tau_pixels;
     o->max_triangles = d.max_triangles;
     o->worker_threads = d.worker_threads;
+    o->network_thread = d.network_thread ? 1 : 0;
 }
 
 void terrain_camera_init(terrain_camera* c) {
@@ -142,6 +143,7 @@ terrain_status terrain_client_create(const terrain_client_options* o, terrain_cl
         options.tau_pixels = o->tau_pixels;
         options.max_triangles = o->max_triangles;
         options.worker_threads = o->worker_threads;
+        options.network_thread = o->network_thread != 0;
         *out = new terrain_client(std::move(options));
         return TERRAIN_OK;
     });

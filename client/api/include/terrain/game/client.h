@@ -86,6 +86,11 @@ struct ClientOptions {
     /// Threads the tessellation worker may spread a step over (its own included); 0: min(cores -
     /// 1, 4). The meshes are the same at any count.
     unsigned worker_threads = 0;
+    /// The network on the client's own thread: the link is read, answered and kept alive however
+    /// long the game's frames take, and a join's snapshot is decoded and every op's hash checked
+    /// there; pump() replays the checked changes (paced as above). It costs a second copy of
+    /// the world. Off: pump() reads the network on the game's thread.
+    bool network_thread = false;
 };
 
 /// The world the client holds.
@@ -180,6 +185,7 @@ class Client {
         o.tau_pixels = options.tau_pixels;
         o.max_triangles = options.max_triangles;
         o.worker_threads = options.worker_threads;
+        o.network_thread = options.network_thread ? 1 : 0;
         if (terrain_client_create(&o, &client_) != TERRAIN_OK)
             throw std::bad_alloc();
     }
