@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The game client as a user gets it: `cmake --install` of this build into a fresh prefix, then
 # the C++ example (examples/cpp, find_package(terrain) and terrain::client) configured and built
-# against that prefix alone, the C example built as C99 with pkg-config, the two headers compiled
-# on their own as C99 and C++17 with no include path but the prefix's, and both examples run
-# against a live terrain-server: each must end holding the server's world (seq and hash).
+# against that prefix alone, the C example built as C99 with pkg-config, both again against the
+# static archive (terrain::client_static, pkg-config's terrain_client_static), the headers
+# compiled on their own as C99 and C++17 with no include path but the prefix's, and the four
+# programs run against a live terrain-server: each must end holding the server's world.
 #
 #   consumer_check.sh BUILD_DIR SOURCE_DIR
 set -euo pipefail
@@ -39,6 +40,25 @@ export PKG_CONFIG_PATH=$prefix/lib/pkgconfig
 cc -std=c99 -Wall -Wextra -pedantic -Werror $(pkg-config --cflags terrain_client) \
     "$src/examples/c/crater.c" -o "$work/crater" $(pkg-config --libs terrain_client) \
     -Wl,-rpath,"$prefix/lib" || fail "building examples/c/crater.c with pkg-config"
+
+echo "== both again, static: terrain::client_static and pkg-config's terrain_client_static"
+mkdir -p "$work/cpp_static_src"
+cp "$src/examples/cpp/main.cpp" "$work/cpp_static_src/"
+sed 's/terrain::client)/terrain::client_static)/' "$src/examples/cpp/CMakeLists.txt" \
+    > "$work/cpp_static_src/CMakeLists.txt"
+grep -q 'terrain::client_static' "$work/cpp_static_src/CMakeLists.txt" || fail "the static CMake"
+cmake -S "$work/cpp_static_src" -B "$work/cpp_static" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release \
+    -DCMAKE_PREFIX_PATH="$prefix" > "$work/cpp-static.log" 2>&1 \
+    && cmake --build "$work/cpp_static" >> "$work/cpp-static.log" 2>&1 \
+    || { cat "$work/cpp-static.log"; fail "examples/cpp against terrain::client_static"; }
+# shellcheck disable=SC2046 # pkg-config's words are separate arguments
+cc -std=c99 -Wall -Wextra -pedantic -Werror $(pkg-config --cflags terrain_client_static) \
+    "$src/examples/c/crater.c" -o "$work/crater_static" $(pkg-config --libs terrain_client_static) \
+    || fail "building examples/c/crater.c with pkg-config's terrain_client_static"
+for program in "$work/cpp_static/game_example" "$work/crater_static"; do
+    ! readelf -d "$program" | grep -q 'libterrain_client' \
+        || fail "$program needs libterrain_client.so: it was to be static"
+done
 
 echo "== the headers alone: C99 and C++17, the prefix's include folder only"
 printf '#include <terrain_client.h>\nint main(void) { return terrain_abi_version() == TERRAIN_CLIENT_ABI_VERSION ? 0 : 1; }\n' \
@@ -80,4 +100,10 @@ grep -q "^$(world) " "$work/cpp.out" || fail "examples/cpp does not hold the ser
 "$work/crater" 127.0.0.1 "$port" "$token" > "$work/c.out" 2>&1 || { cat "$work/c.out"; fail "examples/c"; }
 cat "$work/c.out"
 grep -q "^$(world) " "$work/c.out" || fail "examples/c does not hold the server's world ($(world))"
-echo "consumer_check: the installed package builds both examples; both hold the server's world"
+for program in "$work/cpp_static/game_example" "$work/crater_static"; do
+    "$program" 127.0.0.1 "$port" "$token" > "$work/static.out" 2>&1 \
+        || { cat "$work/static.out"; fail "$program"; }
+    cat "$work/static.out"
+    grep -q "^$(world) " "$work/static.out" || fail "$program does not hold the server's world"
+done
+echo "consumer_check: the installed package builds both examples, shared and static; all four hold the server's world"
