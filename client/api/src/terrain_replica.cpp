@@ -58,6 +58,14 @@ bool fourCC(std::span<const std::uint8_t> bytes, const char* magic) {
     return bytes.size() >= 4 && std::memcmp(bytes.data(), magic, 4) == 0;
 }
 
+// The replica holds `genesis` at seq 0 (made here, so a refusal is ours: INTERNAL).
+terrain_status holdGenesis(terrain_replica* r, terrain::Terrain genesis) {
+    if (auto loaded = r->replica.loadGenesis(std::move(genesis)); !loaded)
+        return fail(r, TERRAIN_INTERNAL, loaded.error().message);
+    r->replica.takeDirty();
+    return TERRAIN_OK;
+}
+
 // The op as the core takes it; false (and the rule named) for a kind the core has not.
 bool toDeformOp(const terrain_op& in, terrain::DeformOp& out, std::string& why) {
     if (in.kind < TERRAIN_OP_CRATER || in.kind > TERRAIN_OP_SMOOTH) {
@@ -161,10 +169,7 @@ terrain_status terrain_replica_load_procedural(
         auto map = terrain::makeProceduralMap(options);
         if (!map)
             return fail(r, TERRAIN_BAD_PARAMETER, map.error().message);
-        if (auto loaded = r->replica.loadGenesis(std::move(*map)); !loaded)
-            return fail(r, TERRAIN_INTERNAL, loaded.error().message);
-        r->replica.takeDirty();
-        return TERRAIN_OK;
+        return holdGenesis(r, std::move(*map));
     });
 }
 
@@ -186,10 +191,7 @@ terrain_status terrain_replica_reset_to_genesis(terrain_replica* r) {
         auto genesis = terrain::Terrain::create(spec, ground);
         if (!genesis)
             return fail(r, TERRAIN_INTERNAL, genesis.error().message);
-        if (auto loaded = r->replica.loadGenesis(std::move(*genesis)); !loaded)
-            return fail(r, TERRAIN_INTERNAL, loaded.error().message);
-        r->replica.takeDirty();
-        return TERRAIN_OK;
+        return holdGenesis(r, std::move(*genesis));
     });
 }
 

@@ -63,6 +63,17 @@ struct ClientResult {
     explicit operator bool() const { return error == ClientError::kNone; }
 };
 
+namespace detail {
+/// A call's status as a ClientResult, with the handle's message when it failed.
+inline ClientResult resultOf(terrain_status status, const char* last_error) {
+    ClientResult r;
+    r.error = static_cast<ClientError>(status);
+    if (status != TERRAIN_OK)
+        r.message = last_error;
+    return r;
+}
+} // namespace detail
+
 struct ClientOptions {
     std::string host = "127.0.0.1";
     std::uint16_t port = 7777;
@@ -320,11 +331,7 @@ class Client {
 
   private:
     ClientResult result(terrain_status status) const {
-        ClientResult r;
-        r.error = static_cast<ClientError>(status);
-        if (status != TERRAIN_OK)
-            r.message = terrain_client_last_error(client_);
-        return r;
+        return detail::resultOf(status, terrain_client_last_error(client_));
     }
 
     terrain_client* client_ = nullptr;

@@ -116,11 +116,7 @@ class Replica {
 
   private:
     ClientResult result(terrain_status status) const {
-        ClientResult r;
-        r.error = static_cast<ClientError>(status);
-        if (status != TERRAIN_OK)
-            r.message = terrain_replica_last_error(replica_);
-        return r;
+        return detail::resultOf(status, terrain_replica_last_error(replica_));
     }
 
     terrain_replica* replica_ = nullptr;
