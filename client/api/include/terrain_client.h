@@ -179,7 +179,9 @@ terrain_client_height_at(const terrain_client* client, double x, double y, doubl
 /* Sends a deformation of kind `kind` (a terrain_op_kind, passed as an int so that any value a
  * foreign caller passes is checked, not undefined); refused at once (nothing sent) with
  * NOT_CONNECTED, NOT_SYNCED, BAD_PARAMETER or CLOSED. request_id (may be NULL) gets the id its
- * answer will carry. */
+ * answer will carry. With network_thread, the thread sends it: if the link drops before it
+ * does, the answer is the refusal (NOT_CONNECTED); as without it, a request sent on a link that
+ * then drops gets no answer. */
 TERRAIN_API terrain_status terrain_client_request_op(
     terrain_client* client,
     int kind,

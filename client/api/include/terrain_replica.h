@@ -41,7 +41,8 @@ typedef enum terrain_op_outcome {
     TERRAIN_OP_APPLIED = 0,  /* applied; its hash equals the server's (or it had none to check) */
     TERRAIN_OP_STALE = 1,    /* seq already held: ignored, nothing changed */
     TERRAIN_OP_DIVERGED = 2, /* applied, but the hash differs: repair the suspect tiles */
-    TERRAIN_OP_STILL_DIVERGED = 3 /* applied while diverged; the hash still differs */
+    TERRAIN_OP_STILL_DIVERGED = 3 /* applied while diverged: not repaired yet (its hash, if
+                                   * given, differs too) */
 } terrain_op_outcome;
 
 typedef struct terrain_replica_state {

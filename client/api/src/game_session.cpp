@@ -49,7 +49,6 @@ struct Session::Impl {
     NetworkNews latest; // the network thread's flags as last taken (changes and answers moved out)
     std::deque<client::ReplicaChange> inbox;
     client::OpPacer pacer;
-    std::uint64_t replay_failures = 0;
     std::unique_ptr<client::TessellationWorker> worker;
     roam::DrawnMesh mesh{roam::DrawnMesh::Units::kMetres};
     std::vector<OpAnswer> answers;
@@ -80,9 +79,9 @@ struct Session::Impl {
         closed = true;
         last_error = network ? latest.last_disconnect : connection->lastDisconnect();
         closed_reason = last_error;
-        closed_because = last_error.rfind("CONNECT_TIMEOUT", 0) == 0
-                             ? ClientError::kTimedOut
-                             : ClientError::kRefusedByServer;
+        closed_because = last_error.rfind("CONNECT_TIMEOUT", 0) == 0 ? ClientError::kTimedOut
+                         : last_error.rfind("INTERNAL", 0) == 0      ? ClientError::kInternal
+                                                                : ClientError::kRefusedByServer;
     }
 
     ClientResult closedResult() const {
@@ -103,8 +102,10 @@ struct Session::Impl {
     void takeNews() {
         NetworkNews news = network->take();
         for (client::ReplicaChange& c : news.changes) {
-            if (c.kind == client::ReplicaChange::Kind::kState)
+            if (c.kind == client::ReplicaChange::Kind::kState) {
                 inbox.clear(); // a whole state supersedes everything before it
+                pacer.reset();
+            }
             inbox.push_back(std::move(c));
         }
         for (client::DeformAnswer& a : news.answers)
@@ -124,8 +125,15 @@ struct Session::Impl {
             const bool is_op = inbox.front().kind == client::ReplicaChange::Kind::kOp;
             if (is_op && ops == 0)
                 break;
-            if (!replica.replay(inbox.front()))
-                ++replay_failures; // the network's replica was checked: a bug, counted
+            if (Status replayed = replica.replay(inbox.front()); !replayed) {
+                // the network's replica applied it (a repair it then refused, or a bug): the
+                // frame's copy starts again from that replica's checked world
+                last_error = "the frame's replica could not replay a change (" +
+                             replayed.error().message + "): taking the network's whole state";
+                inbox.clear();
+                network->resendState();
+                return;
+            }
             inbox.pop_front();
             if (is_op)
                 --ops;

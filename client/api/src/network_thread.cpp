@@ -13,8 +13,10 @@
 namespace terrain::game::detail {
 
 struct NetworkThread::State {
-    asio::io_context io;
+    // the replica first: the io_context's pending handlers hold the connection, which holds a
+    // reference to it, until the io_context is gone
     client::Replica replica; // the network thread's: every op checked here
+    asio::io_context io;
     std::shared_ptr<client::Connection> connection;
     std::map<std::uint32_t, std::uint32_t> request_ids; // the connection's id -> ours
     std::atomic<bool> stopping{false};
@@ -29,6 +31,8 @@ struct NetworkThread::State {
         std::vector<client::ReplicaChange> changes = replica.takeChanges();
         replica.takeDirty(); // nothing draws this copy
         const bool live = connection->state() == client::Connection::State::kLive;
+        if (!live)
+            request_ids.clear(); // sent on a link now lost: no answer comes (as pump()'s mode)
         const std::lock_guard<std::mutex> lock(mutex);
         for (client::ReplicaChange& c : changes)
             news.changes.push_back(std::move(c));
@@ -47,18 +51,46 @@ struct NetworkThread::State {
 
     void run() {
         // ops are applied as they are read (unpaced): the frame thread paces its own replays
-        while (!stopping.load(std::memory_order_acquire)) {
-            io.run_for(std::chrono::milliseconds(2));
-            publish();
-            if (io.stopped()) { // nothing left to wait for (closed): idle until stopped
-                io.restart();
-                std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        try {
+            while (!stopping.load(std::memory_order_acquire)) {
+                io.run_for(std::chrono::milliseconds(2));
+                publish();
+                if (io.stopped()) { // nothing left to wait for (closed): idle until stopped
+                    io.restart();
+                    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+                }
             }
+            connection->stop();
+            io.restart();
+            io.poll(); // the cancelled handlers run (they hold the connection)
+            publish();
+        } catch (const std::exception& e) {
+            fault(e.what());
+        } catch (...) {
+            fault("an unknown exception");
         }
-        connection->stop();
-        io.restart();
-        io.poll(); // the cancelled handlers run (they hold the connection)
-        publish();
+    }
+
+    // Something threw on this thread (out of memory in a snapshot, a bug): the client closes
+    // with the reason, as pump() would have said it, instead of the process ending.
+    void fault(const char* what) noexcept {
+        try {
+            {
+                const std::lock_guard<std::mutex> lock(mutex);
+                news.closed = true;
+                news.live = false;
+                news.synced = false;
+                news.last_disconnect = std::string("INTERNAL: network thread: ") + what;
+            }
+            connection->stop();
+            io.restart();
+            io.poll();
+        } catch (...) {
+            const std::lock_guard<std::mutex> lock(mutex);
+            news.closed = true; // the message could not be made; the close stands
+        }
+        while (!stopping.load(std::memory_order_acquire))
+            std::this_thread::sleep_for(std::chrono::milliseconds(2));
     }
 };
 
@@ -112,6 +144,20 @@ std::uint32_t NetworkThread::requestDeform(const OpRequest& request) {
             s.request_ids[sent] = id;
     });
     return id;
+}
+
+void NetworkThread::resendState() {
+    State& s = *state_;
+    asio::post(s.io, [&s] {
+        if (!s.replica.ready())
+            return;
+        client::ReplicaChange change;
+        change.kind = client::ReplicaChange::Kind::kState;
+        change.seq = s.replica.seq();
+        change.state = std::make_shared<const Terrain>(s.replica.terrain());
+        const std::lock_guard<std::mutex> lock(s.mutex);
+        s.news.changes.push_back(std::move(change));
+    });
 }
 
 void NetworkThread::stop() {

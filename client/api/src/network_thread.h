@@ -43,8 +43,11 @@ class NetworkThread {
     NetworkNews take();
     /// Frame thread: queues a deformation for the network thread and returns its id at once;
     /// the answer comes through take() (refused there, NOT_CONNECTED, if the link dropped before
-    /// the network thread sent it).
+    /// the network thread sent it; none, as with pump(), if it drops after).
     std::uint32_t requestDeform(const OpRequest& request);
+    /// Frame thread: asks for the network replica's whole state as the next change (the frame's
+    /// copy could not replay one: it starts again from the checked world).
+    void resendState();
     /// Closes the connection for good and joins the thread.
     void stop();
 

@@ -110,9 +110,9 @@ const char* terrain_replica_last_error(const terrain_replica* r) {
 terrain_status terrain_replica_load(terrain_replica* r, const void* bytes, size_t size) {
     if (r == nullptr)
         return TERRAIN_BAD_PARAMETER;
-    if (bytes == nullptr && size != 0)
-        return fail(r, TERRAIN_BAD_PARAMETER, "bytes is NULL");
     return guarded(r, [&] {
+        if (bytes == nullptr && size != 0)
+            return fail(r, TERRAIN_BAD_PARAMETER, "bytes is NULL");
         std::span<const std::uint8_t> in = bytesOf(bytes, size);
         terrain::wire::RawBytes raw;
         if (terrain::wire::isZstdFrame(in)) {
@@ -152,14 +152,16 @@ terrain_status terrain_replica_load_procedural(
     terrain_replica* r, uint64_t seed, int32_t size, double patch_tolerance_metres) {
     if (r == nullptr)
         return TERRAIN_BAD_PARAMETER;
-    // the server's --size range
-    if (size < 65 || size > 8193)
-        return fail(
-            r, TERRAIN_BAD_PARAMETER, "size must be in [65, 8193], got " + std::to_string(size));
-    if (!std::isfinite(patch_tolerance_metres) || patch_tolerance_metres < 0.0)
-        return fail(
-            r, TERRAIN_BAD_PARAMETER, "patch_tolerance_metres must be finite and >= 0 (0: 1/32 m)");
     return guarded(r, [&] {
+        // the server's --size range
+        if (size < 65 || size > 8193)
+            return fail(
+                r, TERRAIN_BAD_PARAMETER,
+                "size must be in [65, 8193], got " + std::to_string(size));
+        if (!std::isfinite(patch_tolerance_metres) || patch_tolerance_metres < 0.0)
+            return fail(
+                r, TERRAIN_BAD_PARAMETER,
+                "patch_tolerance_metres must be finite and >= 0 (0: 1/32 m)");
         terrain::ProceduralMapOptions options;
         options.seed = seed;
         options.width = size;
@@ -176,9 +178,9 @@ terrain_status terrain_replica_load_procedural(
 terrain_status terrain_replica_reset_to_genesis(terrain_replica* r) {
     if (r == nullptr)
         return TERRAIN_BAD_PARAMETER;
-    if (!r->replica.ready())
-        return fail(r, TERRAIN_NOT_SYNCED, "no world held: nothing to take the genesis of");
     return guarded(r, [&] {
+        if (!r->replica.ready())
+            return fail(r, TERRAIN_NOT_SYNCED, "no world held: nothing to take the genesis of");
         const terrain::Terrain& held = r->replica.terrain();
         const terrain::WorldSpec& spec = held.spec();
         std::vector<std::int32_t> ground(
@@ -203,16 +205,16 @@ terrain_status terrain_replica_apply_op(
     int* outcome) {
     if (r == nullptr)
         return TERRAIN_BAD_PARAMETER;
-    if (op == nullptr)
-        return fail(r, TERRAIN_BAD_PARAMETER, "op is NULL");
-    if (!r->replica.ready())
-        return fail(r, TERRAIN_NOT_SYNCED, "no world held: load a state before ops");
-    if (seq > r->replica.seq() + 1)
-        return fail(
-            r, TERRAIN_SEQ_GAP,
-            "op seq " + std::to_string(seq) + " on top of seq " + std::to_string(r->replica.seq()) +
-                ": ops were missed (load a snapshot)");
     return guarded(r, [&] {
+        if (op == nullptr)
+            return fail(r, TERRAIN_BAD_PARAMETER, "op is NULL");
+        if (!r->replica.ready())
+            return fail(r, TERRAIN_NOT_SYNCED, "no world held: load a state before ops");
+        if (seq > r->replica.seq() + 1)
+            return fail(
+                r, TERRAIN_SEQ_GAP,
+                "op seq " + std::to_string(seq) + " on top of seq " +
+                    std::to_string(r->replica.seq()) + ": ops were missed (load a snapshot)");
         terrain::DeformOp deform;
         std::string why;
         if (!toDeformOp(*op, deform, why))
@@ -288,15 +290,17 @@ terrain_status terrain_replica_tile_hash(const terrain_replica* r, int32_t tile,
     if (r == nullptr || out == nullptr)
         return TERRAIN_BAD_PARAMETER;
     auto* mutable_r = const_cast<terrain_replica*>(r); // for the message only
-    if (!r->replica.ready())
-        return fail(mutable_r, TERRAIN_NOT_SYNCED, "no world held");
-    const std::int32_t tiles = r->replica.terrain().spec().tileCount();
-    if (tile < 0 || tile >= tiles)
-        return fail(
-            mutable_r, TERRAIN_BAD_PARAMETER,
-            "tile must be in [0, " + std::to_string(tiles) + "), got " + std::to_string(tile));
-    *out = r->replica.terrain().tileHash(tile);
-    return TERRAIN_OK;
+    return guarded(mutable_r, [&] {
+        if (!r->replica.ready())
+            return fail(mutable_r, TERRAIN_NOT_SYNCED, "no world held");
+        const std::int32_t tiles = r->replica.terrain().spec().tileCount();
+        if (tile < 0 || tile >= tiles)
+            return fail(
+                mutable_r, TERRAIN_BAD_PARAMETER,
+                "tile must be in [0, " + std::to_string(tiles) + "), got " + std::to_string(tile));
+        *out = r->replica.terrain().tileHash(tile);
+        return TERRAIN_OK;
+    });
 }
 
 terrain_status
@@ -304,17 +308,19 @@ terrain_replica_height_at(const terrain_replica* r, double x, double y, double* 
     if (r == nullptr || height_out == nullptr)
         return TERRAIN_BAD_PARAMETER;
     auto* mutable_r = const_cast<terrain_replica*>(r); // for the message only
-    if (!r->replica.ready())
-        return fail(mutable_r, TERRAIN_NOT_SYNCED, "no world held");
-    const terrain::WorldSpec& spec = r->replica.terrain().spec();
-    if (!std::isfinite(x) || !std::isfinite(y) || x < 0.0 || y < 0.0 || x > spec.extentX() ||
-        y > spec.extentY())
-        return fail(
-            mutable_r, TERRAIN_BAD_PARAMETER,
-            "(x, y) must be on the map, [0, " + std::to_string(spec.extentX()) + "] x [0, " +
-                std::to_string(spec.extentY()) + "] m");
-    *height_out = terrain::surfaceHeight(r->replica.terrain(), x, y);
-    return TERRAIN_OK;
+    return guarded(mutable_r, [&] {
+        if (!r->replica.ready())
+            return fail(mutable_r, TERRAIN_NOT_SYNCED, "no world held");
+        const terrain::WorldSpec& spec = r->replica.terrain().spec();
+        if (!std::isfinite(x) || !std::isfinite(y) || x < 0.0 || y < 0.0 || x > spec.extentX() ||
+            y > spec.extentY())
+            return fail(
+                mutable_r, TERRAIN_BAD_PARAMETER,
+                "(x, y) must be on the map, [0, " + std::to_string(spec.extentX()) + "] x [0, " +
+                    std::to_string(spec.extentY()) + "] m");
+        *height_out = terrain::surfaceHeight(r->replica.terrain(), x, y);
+        return TERRAIN_OK;
+    });
 }
 
 terrain_status terrain_replica_apply_repair(
@@ -328,16 +334,16 @@ terrain_status terrain_replica_apply_repair(
     size_t* still_differing) {
     if (r == nullptr)
         return TERRAIN_BAD_PARAMETER;
-    if ((tiles == nullptr && size != 0) || (tile_hashes == nullptr && tile_hash_count != 0))
-        return fail(r, TERRAIN_BAD_PARAMETER, "a NULL buffer with a size");
-    if (!r->replica.ready())
-        return fail(r, TERRAIN_NOT_SYNCED, "no world held: nothing to repair");
-    if (seq != r->replica.seq())
-        return fail(
-            r, TERRAIN_BAD_PARAMETER,
-            "tile state at seq " + std::to_string(seq) + " for a replica at seq " +
-                std::to_string(r->replica.seq()) + ": it must follow every op up to it");
     return guarded(r, [&] {
+        if ((tiles == nullptr && size != 0) || (tile_hashes == nullptr && tile_hash_count != 0))
+            return fail(r, TERRAIN_BAD_PARAMETER, "a NULL buffer with a size");
+        if (!r->replica.ready())
+            return fail(r, TERRAIN_NOT_SYNCED, "no world held: nothing to repair");
+        if (seq != r->replica.seq())
+            return fail(
+                r, TERRAIN_BAD_PARAMETER,
+                "tile state at seq " + std::to_string(seq) + " for a replica at seq " +
+                    std::to_string(r->replica.seq()) + ": it must follow every op up to it");
         const terrain::WorldSpec& spec = r->replica.terrain().spec();
         const auto max_tiles = static_cast<std::size_t>(spec.tileCount());
         std::span<const std::uint8_t> in = bytesOf(tiles, size);
@@ -359,12 +365,18 @@ terrain_status terrain_replica_apply_repair(
                 "tile_hashes must hold every tile's hash (" + std::to_string(max_tiles) +
                     ") or none, got " + std::to_string(tile_hash_count));
         // records that each decode may still break an invariant together, found only once
-        // they are in: the copy puts everything back then (a repair is rare; the copy is the
-        // world's size)
+        // they are in: the copy puts everything back then, or if anything throws (a repair is
+        // rare; the copy is the world's size)
         terrain::client::Replica before = r->replica;
-        auto differing = r->replica.applyRepair(
-            seq, world_hash, std::move(*records),
-            std::span<const std::uint64_t>(tile_hashes, tile_hash_count));
+        terrain::Result<std::vector<std::int32_t>> differing = std::vector<std::int32_t>{};
+        try {
+            differing = r->replica.applyRepair(
+                seq, world_hash, std::move(*records),
+                std::span<const std::uint64_t>(tile_hashes, tile_hash_count));
+        } catch (...) {
+            r->replica = std::move(before);
+            throw;
+        }
         if (!differing) {
             r->replica = std::move(before);
             return refused(r, differing.error());
@@ -380,17 +392,17 @@ terrain_status
 terrain_replica_save(terrain_replica* r, int format, const uint8_t** bytes, size_t* size) {
     if (r == nullptr)
         return TERRAIN_BAD_PARAMETER;
-    if (bytes == nullptr || size == nullptr)
-        return fail(r, TERRAIN_BAD_PARAMETER, "bytes and size must not be NULL");
-    *bytes = nullptr;
-    *size = 0;
-    if (format != TERRAIN_STATE_SNAPSHOT && format != TERRAIN_STATE_GENESIS_DELTA)
-        return fail(
-            r, TERRAIN_BAD_PARAMETER,
-            "format must be 1 (snapshot) or 2 (genesis delta), got " + std::to_string(format));
-    if (!r->replica.ready())
-        return fail(r, TERRAIN_NOT_SYNCED, "no world held: nothing to save");
     return guarded(r, [&] {
+        if (bytes == nullptr || size == nullptr)
+            return fail(r, TERRAIN_BAD_PARAMETER, "bytes and size must not be NULL");
+        *bytes = nullptr;
+        *size = 0;
+        if (format != TERRAIN_STATE_SNAPSHOT && format != TERRAIN_STATE_GENESIS_DELTA)
+            return fail(
+                r, TERRAIN_BAD_PARAMETER,
+                "format must be 1 (snapshot) or 2 (genesis delta), got " + std::to_string(format));
+        if (!r->replica.ready())
+            return fail(r, TERRAIN_NOT_SYNCED, "no world held: nothing to save");
         const terrain::Terrain& terrain = r->replica.terrain();
         r->saved =
             format == TERRAIN_STATE_SNAPSHOT

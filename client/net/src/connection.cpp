@@ -79,6 +79,7 @@ void Connection::stop() {
     asio::error_code ignored;
     timer_.cancel();
     attempt_timer_.cancel();
+    resolver_.cancel(); // a lookup in flight must not hold up the io_context's end
     socket_.shutdown(asio::ip::tcp::socket::shutdown_both, ignored);
     socket_.close(ignored);
 }

@@ -457,6 +457,9 @@ std::vector<std::int32_t>& Terrain::mutableOriginal() {
     // shared with a copy (a snapshot being encoded on another thread): this one gets its own
     if (original_.use_count() > 1)
         original_ = std::make_shared<std::vector<std::int32_t>>(*original_);
+    else
+        // as in mutablePatches: the other owner's release happens before this write
+        std::atomic_thread_fence(std::memory_order_acquire);
     return *original_;
 }
 

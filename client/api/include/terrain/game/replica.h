@@ -30,7 +30,7 @@ enum class ReplicaOutcome {
     kApplied = TERRAIN_OP_APPLIED,             ///< applied; the hash matches (or had none)
     kStale = TERRAIN_OP_STALE,                 ///< seq already held: ignored
     kDiverged = TERRAIN_OP_DIVERGED,           ///< applied, the hash differs: repair
-    kStillDiverged = TERRAIN_OP_STILL_DIVERGED ///< applied while diverged, still differs
+    kStillDiverged = TERRAIN_OP_STILL_DIVERGED ///< applied while diverged: not repaired yet
 };
 
 class Replica {
