@@ -7,6 +7,7 @@
 #include <chrono>
 #include <map>
 #include <mutex>
+#include <stdexcept>
 #include <thread>
 #include <utility>
 
@@ -158,6 +159,10 @@ void NetworkThread::resendState() {
         const std::lock_guard<std::mutex> lock(s.mutex);
         s.news.changes.push_back(std::move(change));
     });
+}
+
+void NetworkThread::throwOnTheThreadForTesting(std::string what) {
+    asio::post(state_->io, [what = std::move(what)] { throw std::runtime_error(what); });
 }
 
 void NetworkThread::stop() {

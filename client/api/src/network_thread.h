@@ -50,6 +50,9 @@ class NetworkThread {
     void resendState();
     /// Closes the connection for good and joins the thread.
     void stop();
+    /// Tests: makes the network thread throw `what` from inside its loop, as a bug or an
+    /// allocation failure there would (the client must close by name, not end the process).
+    void throwOnTheThreadForTesting(std::string what);
 
   private:
     struct State;
