@@ -33,6 +33,7 @@
 #include <terrain/client/replica.h>
 #include <terrain/client/tessellation_feed.h>
 #include <terrain/client/tessellation_worker.h>
+#include <terrain/lodlab/screen_measure.h>
 #include <terrain/procedural_map.h>
 #include <terrain/render/offscreen.h>
 #include <terrain/render/terrain_renderer.h>
@@ -110,6 +111,8 @@ struct Settings {
     int burst_every = 100;
     double tau = 1.0;
     std::int64_t max_triangles = 400'000;
+    double merge_band = roam::TessellatorOptions{}.merge_band;
+    double step_ms = client::TessellationWorkerOptions{}.step_ms;
     std::int32_t max_blocks = roam::TessellatorOptions{}.max_detail_blocks;
     std::int64_t work_budget = roam::TessellatorOptions{}.work_budget;
     std::int64_t stale_budget = roam::TessellatorOptions{}.stale_block_budget;
@@ -126,6 +129,7 @@ struct Settings {
     unsigned threads = 0;
     double fps = 60.0;
     double frame_target_ms = 0.0;
+    int measure_every = 0;
     ProceduralMapOptions map;
     BattleOptions battle;
     std::string out;
@@ -143,6 +147,14 @@ std::optional<int> parseSettings(int argc, char** argv, Settings& s) {
     app.add_option("--tau", s.tau, "screen-error threshold, pixels")->check(CLI::PositiveNumber);
     app.add_option("--max-triangles", s.max_triangles, "the tessellator's triangle cap")
         ->check(CLI::PositiveNumber);
+    app.add_option(
+           "--merge-band", s.merge_band,
+           "a split diamond merges below this share of the threshold (hysteresis; 1: none)")
+        ->check(CLI::Range(0.05, 1.0));
+    app.add_option(
+           "--step-ms", s.step_ms,
+           "--async: the time a worker step aims at (0: one whole step per frame, the old way)")
+        ->check(CLI::NonNegativeNumber);
     app.add_option("--max-blocks", s.max_blocks, "detail blocks resident at once (the pool)")
         ->check(CLI::PositiveNumber);
     app.add_option(
@@ -183,6 +195,11 @@ std::optional<int> parseSettings(int argc, char** argv, Settings& s) {
     app.add_option(
            "--frame-ms", s.frame_target_ms,
            "frame time the triangle cap is steered to hold, as the bot does (0: off)")
+        ->check(CLI::NonNegativeNumber);
+    app.add_option(
+           "--measure-every", s.measure_every,
+           "--async: every this many frames, keep the drawn mesh (in view) and measure its screen "
+           "error against the true surface of that frame after the run (0: never)")
         ->check(CLI::NonNegativeNumber);
     app.add_option("--out", s.out, "JSON report");
     try {
@@ -392,6 +409,68 @@ Tally fly(
     return t;
 }
 
+/// The drawn mesh of one frame (its triangles in view, metres) and what it was drawn for.
+struct DrawnSample {
+    int frame = 0;
+    std::uint64_t seq = 0; ///< the frame's replica: the true surface at that frame
+    roam::Camera camera;
+    std::vector<glm::vec3> triangles;
+};
+
+void sampleDrawn(const roam::DrawnMesh& mesh, DrawnSample& out) {
+    const double per_lattice = roam::DrawnMesh::metresPerLattice(mesh.spec());
+    for (std::int32_t tile = 0; tile < mesh.tileCount(); ++tile) {
+        if (!mesh.tileVisible(tile))
+            continue;
+        const std::span<const std::uint32_t> idx = mesh.indices(tile);
+        const std::span<const roam::DrawVertex> v = mesh.vertices(tile);
+        for (std::size_t i = 0; i + 2 < idx.size(); i += 3) {
+            if (idx[i] == idx[i + 1] && idx[i] == idx[i + 2])
+                continue; // a filled hole
+            for (std::size_t k = 0; k < 3; ++k) {
+                const roam::DrawVertex& d = v[idx[i + k]];
+                out.triangles.emplace_back(
+                    static_cast<float>(d.x * per_lattice), static_cast<float>(d.y * per_lattice),
+                    d.z);
+            }
+        }
+    }
+}
+
+/// The screen error of each sample against the true surface of its frame: the world replayed
+/// from `snapshot` through the sent ops up to the sample's seq.
+struct MeasuredError {
+    std::vector<double> p99, max, over_tau_share;
+    std::vector<int> frames;
+};
+
+MeasuredError measureSamples(
+    const std::vector<DrawnSample>& samples,
+    const std::vector<std::uint8_t>& snapshot,
+    const std::vector<SentOp>& sent,
+    double tau) {
+    MeasuredError m;
+    client::Replica world;
+    world.loadSnapshot(std::move(*decodeSnapshot(snapshot)));
+    std::uint64_t seq = 0;
+    lodlab::ScreenErrorOptions options;
+    options.tau_pixels = tau;
+    std::vector<glm::dvec3> triangles;
+    for (const DrawnSample& sample : samples) {
+        for (; seq < sample.seq; ++seq)
+            (void)world.applyOp(seq + 1, sent[seq].op, sent[seq].world_hash);
+        triangles.assign(sample.triangles.begin(), sample.triangles.end());
+        const lodlab::MeshError e =
+            lodlab::measureMeshError(triangles, world.terrain(), sample.camera, options);
+        m.frames.push_back(sample.frame);
+        m.p99.push_back(e.p99_pixels);
+        m.max.push_back(e.max_pixels);
+        m.over_tau_share.push_back(
+            e.triangles > 0 ? static_cast<double>(e.triangles_over_tau) / e.triangles : 0.0);
+    }
+    return m;
+}
+
 /// What the asynchronous flight measured (--async).
 struct AsyncTally {
     std::vector<double> frame_thread;       ///< apply + post + take, every frame (ms)
@@ -401,7 +480,13 @@ struct AsyncTally {
     std::vector<double> error_bound;        ///< of the drawn mesh, for the camera it was made for
     std::vector<double> triangles;          ///< of the drawn mesh
     std::vector<double> render_ms;
-    std::vector<double> late_ms; ///< how far past its deadline each frame started
+    std::vector<double> late_ms;   ///< how far past its deadline each frame started
+    std::vector<double> sample_ms; ///< copying the drawn mesh for --measure-every (not timed above)
+    /// Per op (crater), frames from the one that applied it on the frame thread to the first
+    /// that drew it (a taken delta at or past its seq) and to the first whose drawn mesh had
+    /// it converged (WorkerStep::settled_seq); the largest error bound drawn meanwhile.
+    std::vector<double> to_drawn, to_converged, bound_until_converged;
+    std::vector<DrawnSample> samples;
     std::vector<client::WorkerStep> steps;
     int max_delay_frames = 0;
     bool hashes_agree = true;
@@ -421,12 +506,16 @@ AsyncTally flyAsync(
         std::chrono::duration<double>(1.0 / s.fps));
     auto deadline = bench::Clock::now();
     double last_frame_ms = 0.0;
+    std::vector<int> applied_at{0}; // per seq, the frame that applied it (seq 0: the snapshot)
+    std::uint64_t next_drawn = 1;
+    std::uint64_t next_converged = 1;
     for (int f = 1; feed.flying(f); ++f) {
         deadline += period;
         const auto started = bench::Clock::now();
         t.late_ms.push_back(std::max(
             0.0, std::chrono::duration<double, std::milli>(started - (deadline - period)).count()));
         const auto [arriving, applying, apply_ms] = feed.frame(f, replica);
+        applied_at.resize(feed.seq + 1, f);
         const roam::Camera camera =
             flightCamera(s.flight, f, replica.terrain(), battle.options, s.width, s.height);
         const auto t1 = bench::Clock::now();
@@ -445,6 +534,23 @@ AsyncTally flyAsync(
         t.lag.push_back(static_cast<double>(worker.lag()));
         t.error_bound.push_back(worker.taken().stats.error_bound_pixels);
         t.triangles.push_back(static_cast<double>(worker.taken().stats.triangles));
+        for (; next_drawn <= std::min(worker.taken().seq, feed.seq); ++next_drawn)
+            t.to_drawn.push_back(f - applied_at[next_drawn]);
+        for (; next_converged <= std::min(worker.taken().settled_seq, feed.seq); ++next_converged) {
+            const int from = applied_at[next_converged];
+            t.to_converged.push_back(f - from);
+            t.bound_until_converged.push_back(
+                *std::max_element(t.error_bound.begin() + (from - 1), t.error_bound.begin() + f));
+        }
+        if (s.measure_every > 0 && f % s.measure_every == 0 && mesh.tileCount() > 0) {
+            const auto t4 = bench::Clock::now();
+            DrawnSample& sample = t.samples.emplace_back();
+            sample.frame = f;
+            sample.seq = feed.seq;
+            sample.camera = camera;
+            sampleDrawn(mesh, sample);
+            t.sample_ms.push_back(bench::msSince(t4));
+        }
         double draw_ms = 0.0;
         if (renderer.terrain && mesh.tileCount() > 0) {
             const auto t3 = bench::Clock::now();
@@ -478,7 +584,11 @@ AsyncTally flyAsync(
 
 /// The asynchronous run's JSON report and summary.
 Json asyncReportOf(
-    const Settings& s, const Battle& battle, const AsyncTally& t, unsigned worker_threads) {
+    const Settings& s,
+    const Battle& battle,
+    const AsyncTally& t,
+    const MeasuredError& measured,
+    unsigned worker_threads) {
     std::vector<double> step_ms, step_update, step_apply, step_collect, crater_steps, delta_kib;
     std::vector<double> per_op_ms;
     // the cost model, over the steps that applied ops (craters), no rebuild: each part's time
@@ -529,6 +639,21 @@ Json asyncReportOf(
         if (w.ops > 0)
             per_op_ms.push_back(total / static_cast<double>(w.ops));
     }
+    // where the moves land, over every step (MoveCensus)
+    double moves = 0.0, in_footprint = 0.0, undone = 0.0, ops = 0.0;
+    for (const client::WorkerStep& w : t.steps) {
+        moves += static_cast<double>(w.stats.splits + w.stats.merges);
+        in_footprint += static_cast<double>(w.stats.moves_in_footprint);
+        undone += static_cast<double>(w.stats.moves_undone);
+        ops += static_cast<double>(w.ops);
+    }
+    const double per_op = ops > 0 ? 1.0 / ops : 0.0;
+    const double share = moves > 0 ? 100.0 / moves : 0.0;
+    const bench::Summary drawn = bench::summarize(t.to_drawn);
+    const bench::Summary converged = bench::summarize(t.to_converged);
+    const bench::Summary bound_meanwhile = bench::summarize(t.bound_until_converged);
+    const bench::Summary measured_p99 = bench::summarize(measured.p99);
+    const bench::Summary measured_max = bench::summarize(measured.max);
     const bench::Summary frame = bench::summarize(t.frame_thread);
     const bench::Summary crater = bench::summarize(crater_steps);
     const bench::Summary lag = bench::summarize(t.lag);
@@ -600,7 +725,33 @@ Json asyncReportOf(
                   {"evaluation", summaryJson(bench::summarize(per_evaluation_us))},
                   {"delta_kib", summaryJson(bench::summarize(per_collect_kib_us))}}}}},
         {"ops_waited_frames_max", t.max_delay_frames},
+        {"craters",
+         Json{
+             {"frames_to_drawn", summaryJson(drawn)},
+             {"frames_to_converged", summaryJson(converged)},
+             {"not_converged_at_end",
+              static_cast<double>(battle.sent.size()) - static_cast<double>(converged.n)},
+             {"error_bound_until_converged_px", summaryJson(bound_meanwhile)},
+             {"moves_per_crater", moves * per_op},
+             {"moves_in_footprint_per_crater", in_footprint * per_op},
+             {"moves_elsewhere_per_crater", (moves - in_footprint) * per_op},
+             {"moves_undone_per_crater", undone * per_op},
+             {"moves_in_footprint_percent", in_footprint * share},
+             {"moves_undone_percent", undone * share}}},
+        {"measured_error_px",
+         Json{
+             {"every_frames", s.measure_every},
+             {"samples", measured.p99.size()},
+             {"sample_copy_ms", summaryJson(bench::summarize(t.sample_ms))},
+             {"frame_p99", summaryJson(measured_p99)},
+             {"frame_max", summaryJson(measured_max)},
+             {"triangles_over_tau_share", summaryJson(bench::summarize(measured.over_tau_share))},
+             {"per_sample",
+              Json{{"frame", measured.frames}, {"p99", measured.p99}, {"max", measured.max}}}}},
         {"goals", Json{
+                      {"crater_drawn_next_frame_p99", drawn.p99 <= 1.0},
+                      {"crater_converged_p99_le_10_frames", converged.p99 <= 10.0},
+                      {"measured_error_p99_le_3px", measured_p99.p99 <= 3.0},
                       {"frame_thread_p99_le_2ms", frame.p99 <= 2.0},
                       {"error_bound_p50_le_1_2px", error.p50 <= 1.2},
                       {"error_bound_p99_le_3px", error.p99 <= 3.0},
@@ -628,6 +779,20 @@ Json asyncReportOf(
         "triangles p50 %.0f; hashes %s\n",
         lag.p50, lag.p99, lag.max, error.p50, error.p99, bench::summarize(t.triangles).p50,
         t.hashes_agree ? "agree" : "DIFFER");
+    std::printf(
+        "  craters: drawn after p50 %.0f p99 %.0f max %.0f frames, converged after p50 %.0f p99 "
+        "%.0f max %.0f (%zu of %zu), error bound until then p50 %.2f p99 %.2f px; moves per "
+        "crater %.0f: %.0f in its footprint, %.0f elsewhere, %.0f undoing one (%.0f %%)\n",
+        drawn.p50, drawn.p99, drawn.max, converged.p50, converged.p99, converged.max, converged.n,
+        battle.sent.size(), bound_meanwhile.p50, bound_meanwhile.p99, moves * per_op,
+        in_footprint * per_op, (moves - in_footprint) * per_op, undone * per_op, undone * share);
+    if (!measured.p99.empty())
+        std::printf(
+            "  measured error of %zu drawn frames (every %d): per-frame p99 px p50 %.2f p99 %.2f "
+            "max %.2f; per-frame max px p50 %.2f max %.2f; copying each %.1f ms\n",
+            measured.p99.size(), s.measure_every, measured_p99.p50, measured_p99.p99,
+            measured_p99.max, measured_max.p50, measured_max.max,
+            bench::summarize(t.sample_ms).p50);
     std::printf(
         "  steps with craters (%zu), p50 ms: apply %.2f, absorb %.2f, stale bounds %.2f (%.0f "
         "blocks, %.1f us each), split/merge %.2f (%.0f splits, %.0f merges, %.0f evaluations; "
@@ -784,6 +949,9 @@ int main(int argc, char** argv) {
 
     client::Replica replica;
     replica.loadSnapshot(std::move(*decodeSnapshot(battle.snapshot)));
+    std::vector<std::uint8_t> first_state; // the measures' world starts from it
+    if (s.measure_every > 0)
+        first_state = battle.snapshot;
     std::vector<std::uint8_t>().swap(battle.snapshot);
     replica.takeDirty();
     roam::TessellatorOptions to;
@@ -793,6 +961,8 @@ int main(int argc, char** argv) {
     to.work_budget = s.work_budget;
     to.stale_block_budget = s.stale_budget;
     to.upload_budget_bytes = s.upload_budget;
+    to.count_moves_by_place = true;
+    to.merge_band = s.merge_band;
     if (s.async) {
         Result<Renderer> renderer = makeRenderer(s);
         if (!renderer) {
@@ -806,9 +976,13 @@ int main(int argc, char** argv) {
         wo.keep_step_log = true;
         wo.lockstep = s.lockstep;
         wo.threads = s.threads;
+        wo.step_ms = s.step_ms;
         client::TessellationWorker worker(replica, wo);
         const AsyncTally t = flyAsync(s, battle, replica, worker, *renderer);
-        const Json json = asyncReportOf(s, battle, t, worker.threads());
+        const MeasuredError measured =
+            s.measure_every > 0 ? measureSamples(t.samples, first_state, battle.sent, s.tau)
+                                : MeasuredError{};
+        const Json json = asyncReportOf(s, battle, t, measured, worker.threads());
         if (!s.out.empty()) {
             std::ofstream file(s.out);
             if (!file) {

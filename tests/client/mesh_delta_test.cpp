@@ -210,6 +210,48 @@ TEST(MeshDelta, WithASmallPoolBlocksComeAndGoAndTheCopyKeepsUp) {
     EXPECT_GT(evicted, 50);
 }
 
+TEST(MeshDelta, OnlyTheVerticesATriangleUsesAreBuiltAndAVertexComingIntoUseFollows) {
+    // most of a tile's array is drawn by no triangle (the base grid a coarse tile skips, the
+    // grains' points a block's triangles do not reach): those stand in as the tile's first
+    // vertex in a delta and are sent once a triangle uses them. The copy is taken every step,
+    // then only every ninth (more vertices come into use between two deltas than a tile lists:
+    // every vertex is looked at)
+    Terrain t = world(23, 257);
+    Tessellator tess(t, {});
+    roam::DeltaCollector collector;
+    MeshDelta delta;
+    DrawnMesh copy;
+    std::size_t block_vertices = 0;
+    std::size_t left_out = 0;
+    for (int f = 0; f < 45; ++f) {
+        const double x = 40.0 + f * 4.0;
+        const double y = 60.0 + f * 3.0;
+        const glm::dvec3 eye(x, y, surfaceHeight(t, x, y) + 5.0);
+        tess.update(camera(eye, eye + glm::dvec3(0.8, 0.6, -0.3)));
+        if (f >= 20 && f % 9 != 0)
+            continue;
+        collector.delivered();
+        collector.collect(tess, t, delta);
+        for (const MeshDelta::Tile& e : delta.tiles)
+            for (std::uint32_t r = e.first_run; r < e.first_run + e.run_count; ++r)
+                for (std::uint32_t v = delta.runs[r].begin; v < delta.runs[r].end; ++v)
+                    if (v >= static_cast<std::uint32_t>(roam::kTileBaseVertices)) {
+                        ++block_vertices;
+                        const roam::DrawVertex& d =
+                            delta.vertices[delta.runs[r].at + v - delta.runs[r].begin];
+                        // (a block vertex is never at a tile's corner: the stand-in)
+                        left_out += d.x == static_cast<float>((e.tile % 4) * 1024) &&
+                                            d.y == static_cast<float>((e.tile / 4) * 1024)
+                                        ? 1
+                                        : 0;
+                    }
+        ASSERT_TRUE(copy.apply(delta));
+        ASSERT_EQ(difference(copy, tess, t, f % 3 == 0), "") << "after step " << f + 1;
+    }
+    EXPECT_GT(block_vertices, 1000u);
+    EXPECT_GT(left_out * 2, block_vertices) << "most grain vertices are drawn by no triangle";
+}
+
 TEST(MeshDelta, AMalformedDeltaIsRefusedWhole) {
     const Terrain t = world(23, 257);
     Tessellator tess(t, {});

@@ -1,8 +1,10 @@
 // The tessellator's output, pinned: after every frame of three flights over a cratered world (a
 // cruise, a whip with a teleport, and a low battle flight with craters landing ahead), each
-// tile's index list, vertex array, vertex version and visibility are hashed and compared with
-// tests/data/golden_mesh.txt. Recorded before the tessellator was split into subsystems: a
-// refactor must not change one index or vertex. The first differing frame is named.
+// tile's index list, vertex array, vertex version and visibility are hashed (the layout a
+// renderer uploads), and so is the set of leaf triangles, sorted (the mesh itself, whatever its
+// layout), and both are compared with tests/data/golden_mesh.txt. A refactor must not change
+// one index or vertex; a change of layout alone (the order of equal priorities, the vertex
+// arrays) keeps the triangle sets. The first differing frame is named.
 //
 // Regenerate (only when the output changes on purpose, and say so in the commit):
 //   TERRAIN_REGENERATE_GOLDEN_MESH=1 ./build/release/tests/roam_tests
@@ -18,6 +20,8 @@
 #include <gtest/gtest.h>
 #include <xxhash.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -42,6 +46,7 @@ struct FrameHash {
     int frame = 0;
     std::uint64_t hash = 0;
     std::int64_t triangles = 0;
+    std::uint64_t set_hash = 0;
 };
 
 Camera camera(glm::dvec3 eye, glm::dvec3 target) {
@@ -91,6 +96,29 @@ std::uint64_t meshHash(const Tessellator& tess) {
     return h;
 }
 
+// the leaf triangles that are drawn, with their tiles, sorted: the mesh whatever its layout
+std::uint64_t triangleSetHash(const Tessellator& tess) {
+    std::vector<std::array<std::int32_t, 7>> triangles;
+    tess.forEachLeaf([&](const roam::Triangle& t, std::int32_t tile, bool emitted) {
+        if (emitted)
+            triangles.push_back(
+                {t.apex.x, t.apex.y, t.left.x, t.left.y, t.right.x, t.right.y, tile});
+    });
+    std::sort(triangles.begin(), triangles.end());
+    XXH3_state_t* state = XXH3_createState();
+    XXH3_64bits_reset(state);
+    for (const auto& t : triangles)
+        for (const std::int32_t v : t)
+            put(state, static_cast<std::uint64_t>(static_cast<std::int64_t>(v)));
+    const std::uint64_t h = XXH3_64bits_digest(state);
+    XXH3_freeState(state);
+    return h;
+}
+
+FrameHash frameHash(const char* flight, int frame, const Tessellator& tess) {
+    return {flight, frame, meshHash(tess), tess.triangleCount(), triangleSetHash(tess)};
+}
+
 Terrain world() {
     Terrain t = makeHills(23, 257, 257); // 4 x 4 tiles
     CraterSeries s;
@@ -117,7 +145,7 @@ void flyBattle(
         shootAhead(t, tess, rng, x, y); // two shots a frame, 15-40 m ahead of a camera 6 m up
         const glm::dvec3 eye(x, y, surfaceHeight(t, x, y) + 6.0);
         tess.update(camera(eye, eye + glm::dvec3(0.9, 0.45, -0.25)));
-        out.push_back({"battle", f, meshHash(tess), tess.triangleCount()});
+        out.push_back(frameHash("battle", f, tess));
     }
     if (parallel_passes != nullptr)
         *parallel_passes = tess.parallelBoundsPasses();
@@ -127,7 +155,7 @@ void flyBattle(
 std::vector<FrameHash> fly() {
     std::vector<FrameHash> out;
     auto record = [&](const char* flight, int frame, const Tessellator& tess) {
-        out.push_back({flight, frame, meshHash(tess), tess.triangleCount()});
+        out.push_back(frameHash(flight, frame, tess));
     };
     {
         const Terrain t = world();
@@ -157,10 +185,11 @@ std::vector<FrameHash> fly() {
 }
 
 std::string line(const FrameHash& h) {
-    char text[96];
+    char text[128];
     std::snprintf(
-        text, sizeof text, "%s %d %016llx %lld", h.flight.c_str(), h.frame,
-        static_cast<unsigned long long>(h.hash), static_cast<long long>(h.triangles));
+        text, sizeof text, "%s %d %016llx %lld %016llx", h.flight.c_str(), h.frame,
+        static_cast<unsigned long long>(h.hash), static_cast<long long>(h.triangles),
+        static_cast<unsigned long long>(h.set_hash));
     return text;
 }
 
@@ -169,7 +198,8 @@ TEST(GoldenMesh, Regenerate) {
         GTEST_SKIP()
             << "set TERRAIN_REGENERATE_GOLDEN_MESH=1 to rewrite tests/data/golden_mesh.txt";
     std::ofstream out(kGoldenFile);
-    out << "# tests/client/mesh_golden_test.cpp: flight frame mesh-hash triangles\n";
+    out << "# tests/client/mesh_golden_test.cpp: flight frame layout-hash triangles "
+           "triangle-set-hash\n";
     for (const FrameHash& h : fly())
         out << line(h) << "\n";
     ASSERT_TRUE(out.good());

@@ -1275,6 +1275,113 @@ TEST(RoamMesh, BudgetSpreadsWorkOverFramesAndConverges) {
     EXPECT_EQ(leaves(tess), leaves(reference));
 }
 
+/// A step's end after a fixed number of budget checks (a worker reads a clock; a test counts):
+/// `share` of the step is spent once `share * checks` checks were made.
+struct CountedDeadline final : roam::StepDeadline {
+    explicit CountedDeadline(int checks_per_step) : checks(checks_per_step) {}
+    bool spent(double share) const override {
+        return static_cast<double>(++made) >= share * static_cast<double>(checks);
+    }
+    void start() { made = 0; }
+    int checks;
+    mutable int made = 0;
+};
+
+/// Short steps for `c` until one leaves nothing for the next; fails if that never happens.
+/// Every tenth step, the mesh conforms (a step may end anywhere).
+int stepUntilDone(
+    Tessellator& tess, CountedDeadline& deadline, const Camera& c, const WorldSpec& spec) {
+    for (int step = 1; step <= 5000; ++step) {
+        deadline.start();
+        const roam::FrameStats s = tess.update(c);
+        if (step % 10 == 0)
+            expectConforming(tess, spec);
+        if (!s.budget_exhausted && s.stale_blocks == 0 && s.backlog == 0 &&
+            s.splits + s.merges == 0)
+            return step;
+    }
+    ADD_FAILURE() << "short steps never finished";
+    return 0;
+}
+
+// A worker's short steps (Tessellator::setStepDeadline): each update ends at its deadline, what
+// it leaves (stale bounds, priced splits and merges, candidates not yet priced) waits for the
+// next, and steps with the camera held settle on the mesh one whole update makes; so do they
+// after a burst of craters, bound for bound.
+TEST(RoamMesh, ShortStepsEndAtTheirDeadlineAndSettleOnTheMeshOneWholeUpdateMakes) {
+    Terrain t = cratered(6, 30);
+    CountedDeadline deadline(400);
+    Tessellator tess(t, {});
+    Camera c = overview(t, 300.0);
+    tess.update(c); // the first frame rebuilds top-down, whole
+    tess.setStepDeadline(&deadline);
+    c = overview(t, 25.0);
+    deadline.start();
+    const roam::FrameStats first = tess.update(c);
+    EXPECT_TRUE(first.budget_exhausted) << "the swoop fitted in one short step";
+    EXPECT_GT(first.backlog, 0);
+    const int steps = stepUntilDone(tess, deadline, c, t.spec());
+    EXPECT_GT(steps, 3);
+    Tessellator whole(t, {});
+    whole.update(c);
+    EXPECT_EQ(leaves(tess), leaves(whole));
+
+    // a burst of craters: heights at once, bounds and moves over the steps, then the same as a
+    // fresh build
+    tess.materialiseAll();
+    CraterSeries s;
+    s.seed = 61;
+    s.count = 10;
+    std::vector<CellRect> changed;
+    for (const OpRequest& r : randomCraters(t.spec(), s)) {
+        auto op = quantizeOp(r, t.spec());
+        ASSERT_TRUE(op.ok());
+        auto effect = t.apply(*op);
+        ASSERT_TRUE(effect.ok());
+        changed.push_back(effect->cells);
+    }
+    tess.terrainChanged(changed, false);
+    EXPECT_TRUE(verticesMatchAFreshBuild(tess, t)) << "a vertex height waited for a step";
+    EXPECT_GT(stepUntilDone(tess, deadline, c, t.spec()), 1);
+    Tessellator fresh(t, {});
+    fresh.update(c);
+    EXPECT_EQ(leaves(tess), leaves(fresh));
+}
+
+// A crater's cells are settled once no block of theirs waits for its bounds and no split there
+// waits for a budget: the worker's measure of a crater's convergence.
+TEST(RoamMesh, ACratersCellsAreSettledOnceTheirBoundsAndSplitsAreDone) {
+    Terrain t = cratered(8, 30);
+    TessellatorOptions o;
+    o.stale_block_budget = 16;
+    Tessellator tess(t, o);
+    const Camera c = overview(t, 40.0);
+    updateUntilSettled(tess, c);
+    tess.materialiseAll();
+    OpRequest r;
+    r.x = t.spec().extentX() / 2;
+    r.y = t.spec().extentY() / 2;
+    r.radius = 8.0;
+    r.height = 3.0;
+    r.strength = 0.5;
+    auto op = quantizeOp(r, t.spec());
+    ASSERT_TRUE(op.ok());
+    auto effect = t.apply(*op);
+    ASSERT_TRUE(effect.ok());
+    const CellRect cells = effect->cells;
+    EXPECT_TRUE(tess.settled(cells)) << "nothing was told yet";
+    tess.terrainChanged(std::span<const CellRect>(&cells, 1), false);
+    EXPECT_FALSE(tess.settled(cells)) << "its blocks' bounds are stale";
+    int frames = 0;
+    while (!tess.settled(cells) && frames < 100) {
+        tess.update(c);
+        ++frames;
+    }
+    EXPECT_GT(frames, 1) << "16 blocks a frame: the crater's bounds took frames";
+    EXPECT_TRUE(tess.settled(cells));
+    EXPECT_EQ(tess.staleBlockCount(), 0);
+}
+
 // The upload budget holds a frame's mesh changes to what a renderer may send in one frame: a
 // swoop from high to low spreads its index pages and grain vertices over frames, each within the
 // budget (one split's pages past it at most), the mesh conforming and the error bound honest

@@ -167,5 +167,76 @@ TEST(RoamSplitMerge, TheThresholdRisesWhenTheCapRefusesAndFallsBackToTauWhenTher
     EXPECT_EQ(p.policy.threshold(), 1.0);
 }
 
+TEST(RoamSplitMerge, ShortStepsKeepWhatTheBudgetLeftInABacklogAndPriceAgainOnlyItsBest) {
+    Policy p;
+    p.policy.setBacklogPull(2); // short steps: two of each kind priced again per step
+    for (DiamondId id = 0; id < 6; ++id) {
+        p.mesh.place(id, 10.0, 0.1 * (id + 1));
+        p.policy.offer(id, DiamondSpace::kSplitCandidate);
+    }
+    p.mesh.budget = 2;
+    FrameStats first = p.frame(0.0);
+    EXPECT_EQ(first.evaluations, 6);
+    EXPECT_EQ(p.mesh.splits, (std::vector<DiamondId>{5, 4}));
+    EXPECT_EQ(first.backlog, 4);
+    EXPECT_EQ(p.policy.candidateCount(), 0u) << "the backlog is not the heap";
+    FrameStats second = p.frame(0.0);
+    EXPECT_EQ(second.evaluations, 2) << "only the backlog's best two, priced again";
+    EXPECT_EQ(p.mesh.splits, (std::vector<DiamondId>{5, 4, 3, 2}));
+    p.frame(0.0);
+    EXPECT_EQ(p.mesh.splits, (std::vector<DiamondId>{5, 4, 3, 2, 1, 0}));
+    EXPECT_EQ(p.frame(0.0).backlog, 0);
+    // back to whole frames: what waited is due at once
+    p.policy.setBacklogPull(2);
+    for (DiamondId id = 6; id < 9; ++id) {
+        p.mesh.place(id, 10.0, 0.05 * (id + 1));
+        p.policy.offer(id, DiamondSpace::kSplitCandidate);
+    }
+    p.mesh.budget = 1;
+    p.frame(0.0);
+    p.policy.setBacklogPull(SplitMerge::kPullAll);
+    p.mesh.budget = 1000;
+    EXPECT_EQ(p.frame(0.0).evaluations, 2);
+    EXPECT_EQ(p.mesh.splits.size(), 9u);
+}
+
+TEST(RoamSplitMerge, AMergeWaitsForTheBandBelowTheThreshold) {
+    Policy p;
+    p.policy.setMergeBand(0.5);
+    p.mesh.place(1, 10.0, 0.004);
+    const double at10 = p.priority(1);
+    ASSERT_LT(at10, 1.0);
+    ASSERT_GT(at10, 0.5);
+    p.space.state(1) = DiamondSpace::kActive;
+    p.policy.offer(1, DiamondSpace::kMergeCandidate);
+    p.frame(0.0);
+    EXPECT_TRUE(p.mesh.merges.empty()) << "under the threshold, but above half of it";
+    EXPECT_EQ(p.policy.candidateCount(), 1u);
+    // further away (the fake box moved): due once the eye could have taken it under the band
+    p.mesh.place(1, 40.0, 0.004);
+    ASSERT_LT(p.priority(1), 0.5);
+    const double crossing = p.metric.errorScale() * 0.004 / 1.0;
+    p.frame(0.9 * (crossing / 0.5 - 10.0));
+    EXPECT_TRUE(p.mesh.merges.empty()) << "not due yet";
+    p.frame(0.2 * (crossing / 0.5 - 10.0));
+    EXPECT_EQ(p.mesh.merges, (std::vector<DiamondId>{1}));
+}
+
+TEST(RoamSplitMerge, EqualPrioritiesGoInTheOrderOfTheirIdsWhateverTheOrderOffered) {
+    for (const bool reversed : {false, true}) {
+        Policy p;
+        for (int k = 0; k < 6; ++k) {
+            const DiamondId id =
+                reversed ? static_cast<DiamondId>(5 - k) : static_cast<DiamondId>(k);
+            p.mesh.place(id, -10.0, 0.001); // behind the eye: culled, priority 0
+            p.space.state(id) = DiamondSpace::kActive;
+            p.policy.offer(id, DiamondSpace::kMergeCandidate);
+        }
+        p.mesh.budget = 3;
+        p.frame(0.0);
+        EXPECT_EQ(p.mesh.merges, (std::vector<DiamondId>{5, 4, 3})) << reversed;
+    }
+}
+
 } // namespace
 } // namespace terrain::testing

@@ -13,6 +13,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <random>
@@ -225,6 +226,79 @@ TEST(TessellationWorker, RunningFreeItLagsButSettlesOnTheMeshASynchronousViewSet
     ASSERT_TRUE(settled.apply(delta));
     EXPECT_EQ(drawnTriangles(mesh), drawnTriangles(settled));
     RecordProperty("max_lag", static_cast<int>(max_lag));
+}
+
+/// The height (metres) a lattice point is drawn at: its cell's 17 x 17 grid, the cell at or
+/// before it (the last real one on the map's far lines), as the tessellator reads it.
+double drawnHeight(const Terrain& t, float x, float y) {
+    const auto lx = static_cast<std::int32_t>(x);
+    const auto ly = static_cast<std::int32_t>(y);
+    const std::int32_t cx = std::min(lx / roam::kLatticePerCell, t.spec().cellsX() - 1);
+    const std::int32_t cy = std::min(ly / roam::kLatticePerCell, t.spec().cellsY() - 1);
+    std::array<std::int64_t, roam::kBlockVertices> grid{};
+    roam::fillCellHeights(t, cx, cy, grid);
+    const std::int32_t k = lx - cx * roam::kLatticePerCell;
+    const std::int32_t l = ly - cy * roam::kLatticePerCell;
+    return static_cast<double>(grid[static_cast<std::size_t>(l * roam::kBlockSide + k)]) *
+           t.spec().metresPerUnit() / static_cast<double>(roam::kFineUnitsPerQuantum);
+}
+
+TEST(TessellationWorker, ACratersHeightsAreDrawnBeforeItsSplitsAndMerges) {
+    // steps that end almost at once: a crater's moves take many of them, and its heights (the
+    // triangles drawn now, at the new surface) go first
+    Server server{map(5, 257, 193)};
+    Replica frame_replica;
+    server.load(frame_replica);
+    TessellationWorkerOptions o;
+    o.step_ms = 0.05;
+    o.keep_step_log = true;
+    TessellationWorker worker(frame_replica, o);
+    roam::DrawnMesh mesh;
+    const roam::Camera camera = lowOver(server.world, 60.0, 60.0, 0.46);
+    // a crater 20 m ahead, drawn and settled (its detail blocks resident), then another on it
+    const auto crater = [&](double radius, double depth) {
+        OpRequest r;
+        r.x = 60.0 + 20.0 * std::cos(0.46);
+        r.y = 60.0 + 20.0 * std::sin(0.46);
+        r.radius = radius;
+        r.height = depth;
+        r.strength = 0.4;
+        auto op = quantizeOp(r, server.world.spec());
+        ASSERT_TRUE(op.ok());
+        ASSERT_TRUE(server.world.apply(*op).ok());
+        ++server.seq;
+        ASSERT_TRUE(frame_replica.applyOp(server.seq, *op, server.world.worldHash()).ok());
+    };
+    crater(5.0, 2.0);
+    worker.finish(camera, mesh);
+    ASSERT_EQ(worker.taken().settled_seq, server.seq);
+    crater(3.0, 1.2); // a smaller one in the bowl: every height there moves
+    worker.post(camera);
+    for (int i = 0; i < 5000 && worker.taken().seq < server.seq; ++i) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        worker.take(mesh);
+    }
+    ASSERT_EQ(worker.taken().seq, server.seq);
+    // the first delta with the craters: every vertex a drawn triangle uses is at its new height
+    std::int64_t checked = 0;
+    for (std::int32_t t = 0; t < mesh.tileCount(); ++t) {
+        const auto indices = mesh.indices(t);
+        const auto vertices = mesh.vertices(t);
+        for (const std::uint32_t i : indices) {
+            const roam::DrawVertex& v = vertices[i];
+            ASSERT_NEAR(v.z, drawnHeight(server.world, v.x, v.y), 1e-3)
+                << "tile " << t << " vertex " << i << " at " << v.x << "," << v.y;
+            ++checked;
+        }
+    }
+    EXPECT_GT(checked, 10000);
+    const std::vector<WorkerStep> log = worker.stepLog();
+    EXPECT_TRUE(std::any_of(
+        log.begin(), log.end(), [](const WorkerStep& s) { return s.ops > 0 && s.heights_first; }));
+    // and the moves follow: the same camera until done, at the world's hash
+    worker.finish(camera, mesh);
+    EXPECT_EQ(worker.taken().world_hash, server.world.worldHash());
+    EXPECT_EQ(worker.taken().settled_seq, server.seq) << "the craters converged";
 }
 
 TEST(ReplicaChanges, ReplayedOnAnotherCopyTheyReachTheSameBitsAndTheSameDirtyCells) {

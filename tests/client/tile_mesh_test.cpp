@@ -74,6 +74,13 @@ TEST(RoamTileMesh, KeysFindTheirTrianglesThroughGrowthHolesAndShrinking) {
                 ++seen[idx[i]];
         for (const auto& [key, first] : expected)
             ASSERT_EQ(seen[first], 1) << key;
+        // a vertex is referenced exactly while a live triangle uses it
+        std::map<std::uint32_t, int> uses;
+        for (const auto& [key, first] : expected)
+            for (std::uint32_t k = 0; k < 3; ++k)
+                ++uses[first + k];
+        for (std::uint32_t v = 0; v < 200010; v += 7)
+            ASSERT_EQ(mesh.referenced(v), uses.count(v) != 0) << v;
     };
     for (int round = 0; round < 4; ++round) {
         for (int i = 0; i < 30000; ++i) {
@@ -110,8 +117,11 @@ TEST(RoamTileMesh, KeysFindTheirTrianglesThroughGrowthHolesAndShrinking) {
     mesh.fillHoles();
     check();
     // 12 bytes of indices, 4 of key and at most 16 of table entry per triangle, a quarter of
-    // growth on the lists
-    EXPECT_LE(mesh.memoryBytes(), expected.size() * 36 + 4096);
+    // growth on the lists; and a byte of reference count per vertex index up to the largest
+    // (here a million: real tiles' arrays hold about half as many vertices as triangles)
+    EXPECT_LE(
+        mesh.memoryBytes(),
+        expected.size() * 36 + 4096 + (1060003 + 1) * 5 / 4 + 64 + (1060003 / 8 + 256) * 4 * 5 / 4);
 }
 
 } // namespace

@@ -79,6 +79,19 @@ void DeltaCollector::takeChanges(Tessellator& tess, const WorldSpec& spec) {
         if (!mesh.dirty() && !all_vertices && ranges.empty())
             continue;
         list(t);
+        // vertices a triangle came to use that the reader holds without their data: pending
+        const auto count = static_cast<std::uint32_t>(tess.tileVertexCount(t));
+        if (p.owed.size() != count)
+            p.owed.resize(count, 1); // never collected: owed until it is
+        if (mesh.manyNewlyReferenced()) {
+            for (std::uint32_t v = 0; v < count; ++v)
+                if (p.owed[v] != 0 && mesh.referenced(v))
+                    p.ranges.push_back({v, v + 1});
+        } else {
+            for (const std::uint32_t v : mesh.newlyReferenced())
+                if (v < count && p.owed[v] != 0)
+                    p.ranges.push_back({v, v + 1});
+        }
         if (mesh.rewritten()) {
             p.rewritten = true;
         } else if (!p.rewritten) {
@@ -140,8 +153,17 @@ void DeltaCollector::collect(Tessellator& tess, const Terrain& terrain, MeshDelt
                                    : 1;
     if (builders_.size() < groups)
         builders_.resize(groups);
-    for (std::size_t g = 0; g < groups; ++g)
-        builders_[g].newFrame(); // the terrain may have changed since the last collect
+    // the builders keep their cells' grids from one collect to the next, but for the cells the
+    // terrain changed since (normals read them: a third of a crater's hand-over was refilling
+    // the grids of cells no op had touched)
+    for (TileVertexBuilder& builder : builders_) {
+        if (tess.allCellsChanged())
+            builder.newFrame();
+        else
+            for (const CellRect& r : tess.changedCells())
+                builder.forget(r);
+    }
+    tess.takeChangedCells();
     // groups of consecutive tiles holding about the same number of vertices
     group_ends_.assign(groups, out.tiles.size());
     std::size_t g = 0;
@@ -156,7 +178,9 @@ void DeltaCollector::collect(Tessellator& tess, const Terrain& terrain, MeshDelt
     forEachTask(runner_, groups, 2, [&](std::size_t group) {
         const std::size_t first = group == 0 ? 0 : group_ends_[group - 1];
         for (std::size_t k = first; k < group_ends_[group]; ++k)
-            fill(tess, terrain, out.tiles[k], builders_[group], out);
+            fill(
+                tess, terrain, out.tiles[k], builders_[group], pending_[at(out.tiles[k].tile)],
+                out);
     });
 }
 
@@ -208,8 +232,10 @@ void DeltaCollector::fill(
     const Terrain& terrain,
     const MeshDelta::Tile& entry,
     TileVertexBuilder& builder,
+    Pending& pending,
     MeshDelta& out) {
-    const std::span<const std::uint32_t> indices = tess.tileMesh(entry.tile).indices();
+    const TileMesh& mesh = tess.tileMesh(entry.tile);
+    const std::span<const std::uint32_t> indices = mesh.indices();
     for (std::uint32_t k = entry.first_page; k < entry.first_page + entry.page_count; ++k) {
         const std::size_t from = std::size_t{out.pages[k]} * MeshDelta::kPageIndices;
         const std::size_t n = std::min<std::size_t>(MeshDelta::kPageIndices, indices.size() - from);
@@ -217,12 +243,15 @@ void DeltaCollector::fill(
         std::memcpy(into, indices.data() + from, n * sizeof(std::uint32_t));
         std::fill(into + n, into + MeshDelta::kPageIndices, 0u);
     }
-    // built as they are drawn (normals from `terrain`)
+    // built as they are drawn (normals from `terrain`), those a triangle uses: the others
+    // stand in (TileVertexBuilder::build) and are owed until one does (takeChanges)
     for (std::uint32_t k = entry.first_run; k < entry.first_run + entry.run_count; ++k) {
         const MeshDelta::Run& run = out.runs[k];
         builder.build(
             tess, terrain, entry.tile, run.begin,
-            std::span<DrawVertex>(out.vertices.data() + run.at, run.end - run.begin));
+            std::span<DrawVertex>(out.vertices.data() + run.at, run.end - run.begin), &mesh);
+        for (std::uint32_t v = run.begin; v < run.end; ++v)
+            pending.owed[v] = mesh.referenced(v) ? 0 : 1;
     }
 }
 

@@ -25,6 +25,9 @@ void SplitMerge::clearCandidates() {
     watched_.clear();
     rekey_.clear();
     due_.clear();
+    deferred_splits_.clear();
+    backlog_splits_.clear();
+    backlog_merges_.clear();
     splits_.clear();
     merges_.clear();
 }
@@ -65,10 +68,13 @@ void SplitMerge::evaluate(
         }
         return;
     }
-    if (p <= tau)
+    // (a merge waits for the band below the threshold: hysteresis)
+    if (p <= tau * merge_band_)
         merges_.push_back({p, id});
     else // due when the eye has moved away far enough, or far enough to take it out of view
-        heap_.push(id, travel_ + std::min(std::max(0.0, crossing - distance), m.exitSlack(box)));
+        heap_.push(
+            id,
+            travel_ + std::min(std::max(0.0, crossing / merge_band_ - distance), m.exitSlack(box)));
 }
 
 void SplitMerge::settle(const ViewMetric& m, FrameStats& stats, SplitMergeMesh& mesh) {
@@ -144,6 +150,7 @@ SplitMerge::frame(const ViewMetric& m, double travelled, FrameStats& stats, Spli
         heap_.remove(id);
         due_.push_back(id);
     }
+    pullBacklog();
     watched_next_.swap(watched_);
     watched_.clear();
     for (const DiamondId id : watched_next_)
@@ -151,57 +158,131 @@ SplitMerge::frame(const ViewMetric& m, double travelled, FrameStats& stats, Spli
             space_->state(id) = static_cast<std::uint8_t>(space_->state(id) & ~kWatched);
             due_.push_back(id);
         }
-    const auto by_priority_up = [](const Action& a, const Action& b) {
-        return a.priority < b.priority;
-    };
-    const auto by_priority_down = [](const Action& a, const Action& b) {
-        return a.priority > b.priority;
-    };
-    deferred_.clear();
+    deferred_splits_.clear();
+    const bool stepping = backlog_pull_ != kPullAll;
     while (!due_.empty()) {
         // evaluating appends to due_ only through splits and merges, which happen below
         evaluating_.swap(due_);
         due_.clear();
-        for (const DiamondId id : evaluating_)
-            evaluate(m, id, stats, mesh);
+        for (std::size_t k = 0; k < evaluating_.size(); ++k) {
+            // short steps: pricing stops at its share of the step (the moves need the rest);
+            // what is left stays due for the next
+            if (stepping && k % 64 == 63 && mesh.pricingBudgetSpent(stats)) {
+                due_.insert(
+                    due_.end(), evaluating_.begin() + static_cast<std::ptrdiff_t>(k),
+                    evaluating_.end());
+                break;
+            }
+            evaluate(m, evaluating_[k], stats, mesh);
+        }
         evaluating_.clear();
-        std::sort(merges_.begin(), merges_.end(), by_priority_up);
-        for (const Action& a : merges_) {
-            if ((space_->state(a.id) & kMergeCandidate) == 0 || !space_->active(a.id))
-                continue;
-            if (mesh.mergeBudgetSpent(stats)) {
-                deferred_.push_back(a.id);
-                continue;
-            }
-            mesh.merge(a.id, stats);
+        // a budget that binds step after step goes to the largest errors first (splits), and
+        // the merges, which only free triangles, take what is left, unless the mesh nears its
+        // cap and needs the room; otherwise merges first, so a binding cap has room for splits
+        if (backlog_pull_ != kPullAll && !mesh.needsRoom()) {
+            doSplits(stats, mesh);
+            doMerges(stats, mesh);
+        } else {
+            doMerges(stats, mesh);
+            doSplits(stats, mesh);
         }
-        merges_.clear();
-        std::sort(splits_.begin(), splits_.end(), by_priority_down);
-        for (const Action& a : splits_) {
-            if ((space_->state(a.id) & kSplitCandidate) == 0 || space_->active(a.id))
-                continue;
-            if (mesh.budgetSpent(stats)) {
-                deferred_.push_back(a.id);
-                unmet_ = std::max(unmet_, a.priority);
-                continue;
-            }
-            if (!mesh.split(a.id, stats)) {
-                deferred_.push_back(a.id);
-                unmet_ = std::max(unmet_, a.priority);
-            }
-        }
-        splits_.clear();
         if (mesh.budgetSpent(stats)) {
             stats.budget_exhausted = true;
-            deferred_.insert(deferred_.end(), due_.begin(), due_.end());
-            due_.clear();
+            if (!stepping) {
+                // offered this frame and not priced yet: due as soon as the next frame starts
+                for (const DiamondId id : due_)
+                    if ((space_->state(id) & (kSplitCandidate | kMergeCandidate)) != 0)
+                        heap_.push(id, travel_);
+                due_.clear();
+            } // (short steps keep them due: the next step prices them first)
+            break;
         }
     }
-    // left for the next frame: due again as soon as it starts
-    for (const DiamondId id : deferred_)
-        if ((space_->state(id) & (kSplitCandidate | kMergeCandidate)) != 0)
-            heap_.push(id, travel_);
+    // what the budget left waits in the backlog, by the priority it had: the next frames price
+    // again only the share they may act on, best first
+    if (!backlog_splits_.empty())
+        unmet_ = std::max(unmet_, backlog_splits_.front().priority);
+    stats.backlog = static_cast<std::int64_t>(backlogSize() + due_.size());
     return std::max(threshold, unmet_);
+}
+
+void SplitMerge::doMerges(FrameStats& stats, SplitMergeMesh& mesh) {
+    std::sort(merges_.begin(), merges_.end(), lowerPriority);
+    for (const Action& a : merges_) {
+        if ((space_->state(a.id) & kMergeCandidate) == 0 || !space_->active(a.id))
+            continue;
+        if (mesh.mergeBudgetSpent(stats)) {
+            defer(a, kMergeCandidate);
+            continue;
+        }
+        mesh.merge(a.id, stats);
+    }
+    merges_.clear();
+}
+
+void SplitMerge::doSplits(FrameStats& stats, SplitMergeMesh& mesh) {
+    std::sort(splits_.begin(), splits_.end(), higherPriority);
+    for (const Action& a : splits_) {
+        if ((space_->state(a.id) & kSplitCandidate) == 0 || space_->active(a.id))
+            continue;
+        if (mesh.budgetSpent(stats) || !mesh.split(a.id, stats)) {
+            defer(a, kSplitCandidate);
+            unmet_ = std::max(unmet_, a.priority);
+        }
+    }
+    splits_.clear();
+}
+
+void SplitMerge::defer(const Action& a, std::uint8_t kind) {
+    if (kind == kSplitCandidate)
+        deferred_splits_.push_back(a.id);
+    if (backlog_pull_ == kPullAll) {
+        // due again as soon as the next frame starts, and priced again then with everything due
+        heap_.push(a.id, travel_);
+        return;
+    }
+    if (kind == kSplitCandidate) {
+        backlog_splits_.push_back(a);
+        std::push_heap(backlog_splits_.begin(), backlog_splits_.end(), lowerPriority);
+    } else {
+        backlog_merges_.push_back(a);
+        std::push_heap(backlog_merges_.begin(), backlog_merges_.end(), higherPriority);
+    }
+}
+
+void SplitMerge::setBacklogPull(std::size_t per_frame) {
+    backlog_pull_ = per_frame;
+    if (per_frame != kPullAll)
+        return;
+    // back to one whole frame per update: what waited is due at once
+    for (const std::vector<Action>* backlog : {&backlog_splits_, &backlog_merges_})
+        for (const Action& a : *backlog)
+            if ((space_->state(a.id) & (kSplitCandidate | kMergeCandidate)) != 0 &&
+                !heap_.contains(a.id))
+                heap_.push(a.id, travel_);
+    backlog_splits_.clear();
+    backlog_merges_.clear();
+}
+
+void SplitMerge::pullBacklog() {
+    // the best of what the budgets left, priced again this frame (still candidates of the same
+    // kind, and not re-offered since: those are due or in the heap already)
+    // (only up to what the frame can price: candidates the last frame left unpriced come first)
+    // (known to matter, they are priced first)
+    const std::size_t room = backlog_pull_ > due_.size() ? backlog_pull_ - due_.size() : 0;
+    pulled_.clear();
+    const auto pull = [&](std::vector<Action>& backlog, auto before, std::uint8_t kind) {
+        for (std::size_t k = 0; k < room && !backlog.empty(); ++k) {
+            std::pop_heap(backlog.begin(), backlog.end(), before);
+            const DiamondId id = backlog.back().id;
+            backlog.pop_back();
+            if ((space_->state(id) & kind) != 0 && !heap_.contains(id))
+                pulled_.push_back(id);
+        }
+    };
+    pull(backlog_splits_, lowerPriority, kSplitCandidate);
+    pull(backlog_merges_, higherPriority, kMergeCandidate);
+    due_.insert(due_.begin(), pulled_.begin(), pulled_.end());
 }
 
 void SplitMerge::followCap(
@@ -279,6 +360,22 @@ void SplitMerge::chunksCut(
     };
     rename(watched_);
     rename(rekey_);
+    rename(deferred_splits_);
+    rename(due_); // (short steps carry candidates not yet priced over to the next)
+    const auto rename_actions = [&](std::vector<Action>& actions, auto before) {
+        std::erase_if(actions, [&](Action& a) {
+            DiamondId id = a.id;
+            std::vector<DiamondId> one{id};
+            rename(one);
+            if (one.empty())
+                return true;
+            a.id = one.front();
+            return false;
+        });
+        std::make_heap(actions.begin(), actions.end(), before);
+    };
+    rename_actions(backlog_splits_, lowerPriority);
+    rename_actions(backlog_merges_, higherPriority);
 }
 
 } // namespace terrain::roam

@@ -18,6 +18,7 @@ using namespace detail;
 Tessellator::Tessellator(const Terrain& terrain, const TessellatorOptions& options)
     : terrain_(&terrain), options_(options),
       policy_(space_, options.tau_pixels, options.cull_sweep_degrees) {
+    policy_.setMergeBand(options.merge_band);
     terrainChanged({}, true);
 }
 
@@ -29,6 +30,10 @@ void Tessellator::adoptSpec() {
     pool_.clear();
     pool_.restartClock();
     policy_.forgetIds();
+    if (options_.count_moves_by_place) {
+        census_ = std::make_unique<MoveCensus>();
+        census_->reset(geo().max_x / kLatticePerCell, geo().max_y / kLatticePerCell);
+    }
 }
 
 // ---- candidates ---------------------------------------------------------------------------
@@ -50,8 +55,15 @@ struct Tessellator::PolicyMesh final : SplitMergeMesh {
             t_.deactivate(d, id, stats);
     }
     bool budgetSpent(FrameStats& stats) const override { return t_.budgetSpent(stats, 1.0); }
+    bool needsRoom() const override {
+        return static_cast<double>(t_.triangles_) >=
+               kCapLow * static_cast<double>(t_.options_.max_triangles);
+    }
+    bool pricingBudgetSpent(FrameStats& stats) const override {
+        return t_.budgetSpent(stats, 1.0, kStepPricingShare, 0);
+    }
     bool mergeBudgetSpent(FrameStats& stats) const override {
-        return t_.budgetSpent(stats, kMergeUploadShare);
+        return t_.budgetSpent(stats, kMergeUploadShare, kStepMergeShare);
     }
 
   private:
@@ -164,8 +176,12 @@ void Tessellator::rebuildTopDown(const ViewMetric& m, FrameStats& stats) {
     policy_.settle(m, stats, mesh);
 }
 
-bool Tessellator::budgetSpent(FrameStats& stats, double upload_share) const {
+bool Tessellator::budgetSpent(
+    FrameStats& stats, double upload_share, double time_share, std::int64_t min_work) const {
     if (workSpent(stats) >= options_.work_budget)
+        return true;
+    // (a short step makes a few moves whatever its deadline says: progress, not only pricing)
+    if (deadline_ != nullptr && workSpent(stats) >= min_work && deadline_->spent(time_share))
         return true;
     if (options_.upload_budget_bytes > 0 &&
         static_cast<double>(uploadSpent()) >=
@@ -204,7 +220,18 @@ FrameStats Tessellator::update(const Camera& camera) {
                                     ? std::numeric_limits<std::int64_t>::max()
                                     : options_.stale_block_budget;
     enter(UpdatePhase::kStaleBounds);
-    stats.stale_blocks_bounded = drainStale(budget);
+    if (deadline_ != nullptr && !rebuilding) {
+        // a short step: oldest first, in passes of a few blocks, until its share of the step
+        constexpr std::int64_t kPass = 48;
+        while (staleBlockCount() > 0 && !deadline_->spent(kStepBoundsShare)) {
+            const std::int64_t bounded = drainStale(kPass);
+            stats.stale_blocks_bounded += bounded;
+            if (bounded == 0)
+                break;
+        }
+    } else {
+        stats.stale_blocks_bounded = drainStale(budget);
+    }
     if (rebuilding) {
         enter(UpdatePhase::kRebuild);
         rebuildTopDown(m, stats);
@@ -217,13 +244,17 @@ FrameStats Tessellator::update(const Camera& camera) {
         stats.error_bound_pixels =
             policy_.frame(m, glm::length(camera.eye - last_eye_), stats, mesh);
         stats.refused_by_cap += pool_refusals_ - pool_refusals; // the pool binds like the cap
-        policy_.followCap(
-            stats, triangles_, options_.max_triangles,
-            frame_ > last_pool_refusal_ + kPoolQuietFrames);
+        // a step that goes on with the last view (a worker's short steps) leaves the threshold
+        // alone: each move re-prices every candidate, once a view is enough
+        if (deadline_ == nullptr || !sameView(camera, last_camera_))
+            policy_.followCap(
+                stats, triangles_, options_.max_triangles,
+                frame_ > last_pool_refusal_ + kPoolQuietFrames);
     }
     if (stats.rebuilt)
         stats.error_bound_pixels = policy_.threshold();
     last_eye_ = camera.eye;
+    last_camera_ = camera;
     last_error_scale_ = m.errorScale();
     last_near_ = camera.near_plane;
     enter(UpdatePhase::kFinishFrame);
@@ -259,6 +290,31 @@ bool Tessellator::splitAt(LatticePoint p, FrameStats& stats) {
     if (id == kNoDiamond)
         return false;
     return activate(d, id, false, stats);
+}
+
+void Tessellator::setStepDeadline(const StepDeadline* deadline) {
+    deadline_ = deadline;
+    policy_.setBacklogPull(deadline != nullptr ? kStepBacklogPull : SplitMerge::kPullAll);
+}
+
+bool Tessellator::settled(CellRect cells) const {
+    // a block's bounds read its 3 x 3 window: the blocks one cell around
+    for (std::int32_t cy = cells.y0 - 1; cy <= cells.y1 + 1; ++cy)
+        for (std::int32_t cx = cells.x0 - 1; cx <= cells.x1 + 1; ++cx)
+            if (const std::int32_t block = blocks_.blockOf(cx, cy);
+                block >= 0 && bounds_.blockStale(block))
+                return false;
+    bool waiting = false;
+    policy_.forEachWaitingSplit([&](DiamondId id) {
+        if (waiting || (state(id) & kSplitCandidate) == 0 || active(id))
+            return;
+        const LatticePoint p = pointOf(id);
+        const std::int32_t cx = p.x / kLatticePerCell;
+        const std::int32_t cy = p.y / kLatticePerCell;
+        waiting =
+            cx >= cells.x0 - 1 && cx <= cells.x1 + 1 && cy >= cells.y0 - 1 && cy <= cells.y1 + 1;
+    });
+    return !waiting;
 }
 
 void Tessellator::setTau(double tau_pixels) {

@@ -75,6 +75,7 @@ bool Tessellator::activate(const Diamond& d, DiamondId id, bool forced, FrameSta
     ++stats.splits;
     if (forced)
         ++stats.forced_splits;
+    countMove(d, id, true, stats);
     if (!bookkeeping_)
         return true;
     emitter_.splitTriangles(d, true, forced);
@@ -108,6 +109,7 @@ void Tessellator::deactivate(const Diamond& d, DiamondId id, FrameStats& stats) 
     state(id) = static_cast<std::uint8_t>(state(id) & ~kActive);
     triangles_ -= emitter_.splitGain(d);
     ++stats.merges;
+    countMove(d, id, false, stats);
     if (!bookkeeping_)
         return;
     emitter_.splitTriangles(d, false, false);
@@ -163,6 +165,8 @@ void Tessellator::detachGrain(std::int32_t block, int g) {
 void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
     bounds_.surfaceChanged();
     if (all) {
+        all_cells_changed_ = true;
+        changed_cells_.clear();
         // a snapshot may bring another world (size, spacing): start from its spec
         if (emitter_.tileCount() == 0 || !(terrain_->spec() == spec_))
             adoptSpec();
@@ -226,6 +230,8 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
         for (const std::int32_t record : added_)
             state(centreId(record)) = 0;
         emitter_.heightsChanged(r); // heights moved in these tiles
+        if (census_)
+            census_->changed(r, frame_ + 1);
         bounds_.markStale(r);
         bounds_.recomputeAround(r);
         if (initialized_ && !needs_rebuild_)
@@ -236,8 +242,15 @@ void Tessellator::terrainChanged(std::span<const CellRect> cells, bool all) {
     // terrain): a mesh drawn before the next update() is the new surface, without cracks
     // between a block and the grid around it (their bounds wait for the frames' budget)
     bounds_.freshenHeights();
-    for (const CellRect& r : merged_)
+    for (const CellRect& r : merged_) {
         emitter_.markChangedSurface(r);
+        if (!all_cells_changed_ && changed_cells_.size() < kMaxChangedCells)
+            changed_cells_.push_back(r);
+        else {
+            all_cells_changed_ = true;
+            changed_cells_.clear();
+        }
+    }
 }
 
 void Tessellator::mergeOverlapping(std::vector<CellRect>& rects) {

@@ -32,6 +32,7 @@ std::size_t TileMesh::home(std::uint32_t key, std::size_t size) {
 
 void TileMesh::clear() {
     indices_.clear();
+    std::fill(uses_.begin(), uses_.end(), std::uint8_t{0});
     keys_of_slots_.clear();
     free_slots_.clear();
     std::fill(table_.begin(), table_.end(), kEmptyEntry);
@@ -126,6 +127,27 @@ void TileMesh::write(std::uint32_t slot, const Indices& indices) {
     }
 }
 
+void TileMesh::use(const Indices& indices, int by) {
+    for (const std::uint32_t v : indices) {
+        if (v >= uses_.size()) {
+            const std::size_t n =
+                std::max<std::size_t>(v + 1, uses_.size() + uses_.size() / 4 + 64);
+            uses_.reserve(n); // a quarter of growth, as the lists
+            uses_.resize(n, 0);
+            newly_used_.reserve(newlyLimit()); // then no push allocates
+        }
+        if (uses_[v] == 0 && by > 0 && !newly_overflow_) {
+            if (newly_used_.size() >= newlyLimit()) {
+                newly_overflow_ = true; // nobody takes them: no list may grow for ever
+                newly_used_.clear();
+            } else {
+                newly_used_.push_back(v);
+            }
+        }
+        uses_[v] = static_cast<std::uint8_t>(uses_[v] + by);
+    }
+}
+
 void TileMesh::add(std::uint32_t key, const Indices& indices) {
     std::uint32_t slot = 0;
     if (!free_slots_.empty()) {
@@ -138,6 +160,7 @@ void TileMesh::add(std::uint32_t key, const Indices& indices) {
     keys_of_slots_[slot] = key;
     insertKey(key, slot);
     write(slot, indices);
+    use(indices, 1);
     ++live_;
 }
 
@@ -147,6 +170,7 @@ bool TileMesh::remove(std::uint32_t key) {
         return false;
     const auto slot = static_cast<std::uint32_t>(table_[at]);
     eraseAt(at);
+    use({indices_[3 * slot], indices_[3 * slot + 1], indices_[3 * slot + 2]}, -1);
     keys_of_slots_[slot] = kNoKey;
     free_slots_.push_back(slot);
     write(slot, {0, 0, 0});
@@ -218,6 +242,8 @@ void TileMesh::takeChanges() {
     for (const std::uint32_t page : dirty_pages_)
         page_dirty_[page] = 0;
     dirty_pages_.clear();
+    newly_used_.clear();
+    newly_overflow_ = false;
     cleared_ = false;
 }
 

@@ -62,8 +62,39 @@ void TileVertexBuilder::positions(
 void TileVertexBuilder::newFrame() {
     cell_slot_.clear();
     grids_.clear();
+    free_slots_.clear();
     last_key_ = ~std::uint64_t{0};
     last_grid_ = nullptr;
+}
+
+void TileVertexBuilder::forget(CellRect cells) {
+    last_key_ = ~std::uint64_t{0};
+    last_grid_ = nullptr;
+    const auto area = static_cast<std::size_t>(cells.x1 - cells.x0 + 1) *
+                      static_cast<std::size_t>(cells.y1 - cells.y0 + 1);
+    if (area >= cell_slot_.size()) {
+        // fewer cached grids than cells in the rectangle: look at each grid
+        for (auto it = cell_slot_.begin(); it != cell_slot_.end();) {
+            const auto cx = static_cast<std::int32_t>(it->first >> 32);
+            const auto cy = static_cast<std::int32_t>(it->first & 0xffffffffu);
+            if (cx >= cells.x0 && cx <= cells.x1 && cy >= cells.y0 && cy <= cells.y1) {
+                free_slots_.push_back(it->second);
+                it = cell_slot_.erase(it);
+            } else {
+                ++it;
+            }
+        }
+        return;
+    }
+    for (std::int32_t cy = cells.y0; cy <= cells.y1; ++cy)
+        for (std::int32_t cx = cells.x0; cx <= cells.x1; ++cx) {
+            const std::uint64_t key = (std::uint64_t{static_cast<std::uint32_t>(cx)} << 32) |
+                                      static_cast<std::uint32_t>(cy);
+            if (const auto it = cell_slot_.find(key); it != cell_slot_.end()) {
+                free_slots_.push_back(it->second);
+                cell_slot_.erase(it);
+            }
+        }
 }
 
 const std::int64_t*
@@ -77,10 +108,15 @@ TileVertexBuilder::cellGrid(const Terrain& terrain, std::int32_t cx, std::int32_
     constexpr std::size_t kMaxCells = 1024;
     if (cell_slot_.size() >= kMaxCells && !cell_slot_.contains(key))
         newFrame();
-    auto [it, added] =
-        cell_slot_.try_emplace(key, static_cast<std::uint32_t>(grids_.size() / kCell));
+    const std::uint32_t slot = free_slots_.empty()
+                                   ? static_cast<std::uint32_t>(grids_.size() / kCell)
+                                   : free_slots_.back();
+    auto [it, added] = cell_slot_.try_emplace(key, slot);
     if (added) {
-        grids_.resize(grids_.size() + kCell);
+        if (free_slots_.empty())
+            grids_.resize(grids_.size() + kCell);
+        else
+            free_slots_.pop_back();
         fillCellHeights(
             terrain, cx, cy,
             std::span<std::int64_t, kBlockVertices>(grids_.data() + it->second * kCell, kCell));
@@ -131,15 +167,57 @@ void TileVertexBuilder::build(
     const Terrain& terrain,
     std::int32_t tile,
     std::uint32_t first,
-    std::span<DrawVertex> out) {
-    positions(tess, tile, first, out);
+    std::span<DrawVertex> out,
+    const TileMesh* drawn) {
+    constexpr auto kBase = static_cast<std::uint32_t>(kTileBaseVertices);
     const double per_lattice = tess.metresPerLattice();
     const double per_fine = tess.metresPerFineUnit();
-    constexpr auto kBase = static_cast<std::size_t>(kTileBaseVertices);
-    for (std::size_t i = 0; i < out.size(); ++i)
-        out[i].normal = first + i < kBase
-                            ? baseNormal(terrain, keys_[i].position)
-                            : blockNormal(terrain, keys_[i].position, per_lattice, per_fine);
+    // a stretch of the array, positions and normals
+    const auto stretch = [&](std::size_t from, std::size_t to) {
+        positions(
+            tess, tile, first + static_cast<std::uint32_t>(from), out.subspan(from, to - from));
+        for (std::size_t i = from; i < to; ++i) {
+            const auto index = static_cast<std::uint32_t>(first + i);
+            if (drawn != nullptr && !drawn->referenced(index))
+                continue; // (a base vertex no triangle uses: its height, not its normal)
+            const TileVertex& key = keys_[i - from];
+            out[i].normal = index < kBase
+                                ? baseNormal(terrain, key.position)
+                                : blockNormal(terrain, key.position, per_lattice, per_fine);
+        }
+    };
+    if (drawn == nullptr) {
+        stretch(0, out.size());
+        return;
+    }
+    // a vertex no triangle uses is not the surface's: it stands in as the tile's first vertex
+    // (a point of the tile, as a hole does), facing up; a base vertex keeps its own height (a
+    // reader scales its colours by the base grid). Either is built when a triangle uses it.
+    const std::uint32_t up = packNormal(0.0, 0.0, 1.0);
+    DrawVertex stand_in{};
+    bool have_stand_in = false;
+    std::size_t i = 0;
+    while (i < out.size()) {
+        const auto index = static_cast<std::uint32_t>(first + i);
+        if (!drawn->referenced(index)) {
+            if (index < kBase) {
+                positions(tess, tile, index, out.subspan(i, 1));
+            } else {
+                if (!have_stand_in) {
+                    positions(tess, tile, 0, std::span<DrawVertex>(&stand_in, 1));
+                    have_stand_in = true;
+                }
+                out[i] = stand_in;
+            }
+            out[i++].normal = up;
+            continue;
+        }
+        std::size_t j = i + 1;
+        while (j < out.size() && drawn->referenced(static_cast<std::uint32_t>(first + j)))
+            ++j;
+        stretch(i, j);
+        i = j;
+    }
 }
 
 } // namespace terrain::roam

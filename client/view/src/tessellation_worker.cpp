@@ -15,6 +15,22 @@ double msSince(std::chrono::steady_clock::time_point start) {
 
 } // namespace
 
+/// The end of a short step, for the tessellator's budgets.
+class TessellationWorker::StepClock final : public roam::StepDeadline {
+  public:
+    explicit StepClock(double step_ms) : step_ms_(step_ms) {}
+    void start() { started_ = std::chrono::steady_clock::now(); }
+    bool spent(double share) const override {
+        return std::chrono::duration<double, std::milli>(
+                   std::chrono::steady_clock::now() - started_)
+                   .count() >= share * step_ms_;
+    }
+
+  private:
+    double step_ms_;
+    std::chrono::steady_clock::time_point started_{};
+};
+
 /// Times update()'s passes into the step being made (the tessellator reads no clock).
 class TessellationWorker::PhaseClock final : public roam::UpdatePhaseObserver {
   public:
@@ -56,6 +72,10 @@ TessellationWorker::TessellationWorker(Replica& replica, const TessellationWorke
     }
     phase_clock_ = std::make_unique<PhaseClock>();
     view_->tessellator().setPhaseObserver(phase_clock_.get());
+    if (!options.lockstep && options.step_ms > 0.0) {
+        step_clock_ = std::make_unique<StepClock>(options.step_ms);
+        view_->tessellator().setStepDeadline(step_clock_.get());
+    }
     // from here the replica's changes are the worker's: recorded for it, and its dirty set
     // (the synchronous path's feed) dropped, every post
     replica.takeDirty();
@@ -130,16 +150,53 @@ bool TessellationWorker::take(roam::DrawnMesh& mesh) {
     return changed;
 }
 
+void TessellationWorker::noteReplayed(const ReplicaChange& change) {
+    if (change.kind == ReplicaChange::Kind::kState) {
+        unsettled_.clear(); // the next update rebuilds
+        return;
+    }
+    const DirtySet& dirty = world_.peekDirty();
+    if (change.kind == ReplicaChange::Kind::kOp && !dirty.cells.empty() && !dirty.all)
+        unsettled_.emplace_back(change.seq, dirty.cells.back());
+}
+
+std::uint64_t TessellationWorker::settledSeq() {
+    const roam::Tessellator& tess = view_->tessellator();
+    while (!unsettled_.empty() && tess.settled(unsettled_.front().second))
+        unsettled_.pop_front();
+    return unsettled_.empty() ? world_.seq() : unsettled_.front().first - 1;
+}
+
 std::vector<WorkerStep> TessellationWorker::stepLog() const {
     std::lock_guard lock(log_mutex_);
     return log_;
 }
 
+bool TessellationWorker::frameTookLast() const {
+    return published_ && (middle_.load(std::memory_order_acquire) & kFresh) == 0;
+}
+
+void TessellationWorker::publish(WorkerStep& info) {
+    Slot& slot = slots_[back_];
+    const auto start = std::chrono::steady_clock::now();
+    // the frame thread took the last delta published: what it covered is delivered
+    if (frameTookLast())
+        collector_.delivered();
+    collector_.collect(view_->tessellator(), world_.terrain(), slot.delta);
+    info.collect_ms += msSince(start);
+    info.delta_bytes = slot.delta.payloadBytes();
+    slot.info = info;
+    back_ = middle_.exchange(back_ | kFresh, std::memory_order_acq_rel) & kIndex;
+    published_ = true;
+}
+
 void TessellationWorker::run() {
     std::vector<ReplicaChange> changes;
     std::uint64_t replay_failures = 0;
-    std::uint64_t done = 0;
+    std::uint64_t seen = 0; // the last post taken in
     std::uint64_t steps = 0;
+    const bool sliced = !options_.lockstep && options_.step_ms > 0.0;
+    bool more = false; // the last step left work (bounds, splits, merges) for the next
     for (;;) {
         roam::Camera camera;
         std::uint64_t frame = 0;
@@ -148,19 +205,19 @@ void TessellationWorker::run() {
         std::optional<std::int64_t> max_triangles;
         {
             std::unique_lock lock(in_mutex_);
-            in_cv_.wait(lock, [&] { return stop_ || in_frame_ != done; });
+            in_cv_.wait(lock, [&] { return stop_ || in_frame_ != seen || more; });
             if (stop_)
                 return;
             changes.swap(in_changes_);
             camera = in_camera_;
             frame = in_frame_;
-            frame_ms = in_frame_ms_;
+            if (frame != seen)
+                frame_ms = in_frame_ms_;
             tau = std::exchange(in_tau_, std::nullopt);
             max_triangles = std::exchange(in_max_triangles_, std::nullopt);
         }
-        Slot& slot = slots_[back_];
-        WorkerStep& info = slot.info;
-        info = WorkerStep{};
+        seen = frame;
+        WorkerStep info;
 
         auto start = std::chrono::steady_clock::now();
         // the same changes in the same order as the replica: the same bits (a failure there
@@ -169,9 +226,11 @@ void TessellationWorker::run() {
             // it applied on the frame's replica, so it applies here: a failure is a bug, counted
             if (!world_.replay(change) || world_.seq() != change.seq)
                 ++replay_failures;
+            noteReplayed(change);
             info.ops += change.kind == ReplicaChange::Kind::kOp ? 1 : 0;
         }
         info.replay_failures = replay_failures;
+        const bool changed = !changes.empty();
         changes.clear();
         info.apply_ms = msSince(start);
         start = std::chrono::steady_clock::now();
@@ -183,38 +242,58 @@ void TessellationWorker::run() {
         if (frame_ms > 0.0)
             view_->steer(frame_ms);
         info.absorb_ms = msSince(start);
-
-        start = std::chrono::steady_clock::now();
-        phase_clock_->begin(info);
-        info.stats = view_->update(camera);
-        info.update_ms = msSince(start);
-
-        start = std::chrono::steady_clock::now();
-        // the frame thread took the last delta published: what it covered is delivered
-        if (published_ && (middle_.load(std::memory_order_acquire) & kFresh) == 0)
-            collector_.delivered();
-        collector_.collect(view_->tessellator(), world_.terrain(), slot.delta);
-        info.collect_ms = msSince(start);
         info.step = ++steps;
         info.frame = frame;
         info.seq = world_.seq();
         info.world_hash = world_.worldHash();
         info.threshold = view_->tessellator().threshold();
         info.max_triangles = view_->tessellator().options().max_triangles;
-        info.delta_bytes = slot.delta.payloadBytes();
 
+        double heights_collect_ms = 0.0;
+        if (sliced && changed && published_) {
+            // the heights first: the ops' new surface at the triangles drawn now (absorb moved
+            // their vertices), handed over before any split or merge they call for
+            WorkerStep heights = info;
+            heights.heights_only = true;
+            heights.stats = view_->lastStats();
+            heights.stats.stale_blocks = view_->tessellator().staleBlockCount();
+            heights.settled_seq = settledSeq();
+            publish(heights);
+            heights_collect_ms = heights.collect_ms;
+            info.heights_first = true;
+        }
+
+        if (sliced)
+            step_clock_->start();
+        start = std::chrono::steady_clock::now();
+        phase_clock_->begin(info);
+        info.stats = view_->update(camera);
+        info.update_ms = msSince(start);
+        info.threshold = view_->tessellator().threshold();
+        info.settled_seq = settledSeq();
+        if (sliced) {
+            // more to do: the step ended at its deadline with work left, or left a backlog it
+            // could act on (one the cap refused waits for the threshold, not another step)
+            const roam::FrameStats& st = info.stats;
+            more = st.budget_exhausted || st.stale_blocks > 0 ||
+                   (st.backlog > 0 && st.splits + st.merges > 0);
+        }
+        // a delta the frame has not taken yet would be collected again in the next: publish
+        // when it took the last, when the mesh is done, and in lockstep always
+        if (!sliced || !more || frameTookLast() || !published_)
+            publish(info);
+        info.collect_ms += heights_collect_ms;
         if (options_.keep_step_log) {
             std::lock_guard lock(log_mutex_);
             log_.push_back(info);
         }
-        back_ = middle_.exchange(back_ | kFresh, std::memory_order_acq_rel) & kIndex;
-        published_ = true;
-        done = frame;
-        {
-            std::lock_guard lock(done_mutex_);
-            done_frame_ = frame;
+        if (!more) {
+            {
+                std::lock_guard lock(done_mutex_);
+                done_frame_ = frame;
+            }
+            done_cv_.notify_all();
         }
-        done_cv_.notify_all();
     }
 }
 

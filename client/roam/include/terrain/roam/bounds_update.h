@@ -104,6 +104,8 @@ class BoundsUpdate {
     void forget(std::int32_t block) { stale_.forget(block); }
     /// Blocks waiting for their bounds (a few may have been forgotten since).
     std::size_t staleCount() const { return stale_.size(); }
+    /// Whether `block` waits for its bounds.
+    bool blockStale(std::int32_t block) const { return stale_.stale(block); }
     /// The ids whose bounds the last recomputeAround() or drainStale() moved.
     std::span<const DiamondId> moved() const { return moved_; }
 

@@ -45,6 +45,9 @@ class DeltaCollector {
 
   private:
     struct Pending {
+        /// Per vertex of the tile's array: the reader holds a stand-in for it (no triangle used
+        /// it when it was last collected); a triangle that comes to use it sends it again.
+        std::vector<std::uint8_t> owed;
         std::vector<std::uint32_t> pages;
         std::vector<std::uint8_t> page_flags; ///< per page: in `pages`
         std::vector<VertexRange> ranges;
@@ -62,6 +65,7 @@ class DeltaCollector {
         const Terrain& terrain,
         const MeshDelta::Tile& entry,
         TileVertexBuilder& builder,
+        Pending& pending,
         MeshDelta& out);
 
     std::vector<Pending> pending_;

@@ -13,15 +13,22 @@ struct FrameStats {
     std::int64_t splits = 0;
     std::int64_t forced_splits = 0; ///< of which forced by a finer split
     std::int64_t merges = 0;
-    std::int64_t evaluations = 0;     ///< priorities computed
+    std::int64_t evaluations = 0; ///< priorities computed
+    /// Of the splits and merges, those in cells an op changed lately, and those that undid a
+    /// recent move of the same diamond (counted only with TessellatorOptions::
+    /// count_moves_by_place; MoveCensus says what "lately" is).
+    std::int64_t moves_in_footprint = 0;
+    std::int64_t moves_undone = 0;
     std::int64_t refused_by_cap = 0;  ///< splits refused by the triangle cap or the block pool
     std::int64_t refused_by_pool = 0; ///< of which for want of a detail block
     std::int64_t blocks_materialised = 0;
     std::int64_t blocks_evicted = 0;
     std::int64_t stale_blocks_bounded = 0; ///< blocks whose stale bounds this frame redid
     std::int64_t stale_blocks = 0;         ///< still waiting (their error bound is the old one)
-    std::int64_t triangles = 0;            ///< emitted, all tiles
-    std::int64_t visible_triangles = 0;    ///< in tiles that intersect the frustum
+    /// Splits and merges priced and left for later frames (a spent budget, a refusal).
+    std::int64_t backlog = 0;
+    std::int64_t triangles = 0;         ///< emitted, all tiles
+    std::int64_t visible_triangles = 0; ///< in tiles that intersect the frustum
     std::int64_t index_bytes_written = 0;
     std::int64_t index_bytes_total = 0; ///< size of every tile's index list
     /// What split/merge this frame will make a renderer upload (upload_budget_bytes' measure:

@@ -46,6 +46,10 @@ class SplitMergeMesh {
     virtual void merge(DiamondId id, FrameStats& stats) = 0;
     /// The frame's work or upload budget is spent (what is left waits for the next frame).
     virtual bool budgetSpent(FrameStats& stats) const = 0;
+    /// The mesh nears its triangle cap: merges must make room before the splits.
+    virtual bool needsRoom() const { return true; }
+    /// The share of a short step that pricing may take is spent (the moves need the rest).
+    virtual bool pricingBudgetSpent(FrameStats& stats) const { return budgetSpent(stats); }
     /// The share of the frame's budget merges may spend is: a mesh whose threshold rose (the
     /// cap binds) has thousands of merges due, and merged first they would leave the splits the
     /// view needs waiting frame after frame. The whole budget unless the mesh says otherwise.
@@ -92,6 +96,8 @@ class SplitMerge {
         tau_ = tau_pixels;
         threshold_ = tau_pixels;
     }
+    /// TessellatorOptions::merge_band: merges below this share of the threshold.
+    void setMergeBand(double band) { merge_band_ = band; }
     /// tau, or higher while the cap binds.
     double threshold() const { return threshold_; }
     void setThreshold(double t) { threshold_ = t; }
@@ -123,7 +129,23 @@ class SplitMerge {
     void
     chunksCut(int g, std::size_t end, std::span<const std::pair<std::int32_t, std::int32_t>> moved);
 
+    /// What a spent budget (or a refusal) leaves is due again at the start of the next frame,
+    /// and priced again then with everything due: fine while budgets rarely bind. Where they
+    /// bind frame after frame (a worker's short steps), it waits in a backlog by the priority
+    /// it had, and each frame prices again only the best `per_frame` of each kind.
+    static constexpr std::size_t kPullAll = ~std::size_t{0};
+    void setBacklogPull(std::size_t per_frame);
+    std::size_t backlogSize() const { return backlog_splits_.size() + backlog_merges_.size(); }
     std::size_t candidateCount() const { return heap_.size(); }
+    /// The splits waiting for a budget (or refused by the cap): those the last frame left and
+    /// the rest of the backlog, through visit(id); some may have stopped being split
+    /// candidates since. (Waiting merges only keep triangles the view no longer needs.)
+    template <class Visit> void forEachWaitingSplit(Visit&& visit) const {
+        for (const DiamondId id : deferred_splits_)
+            visit(id);
+        for (const Action& a : backlog_splits_)
+            visit(a.id);
+    }
     std::size_t memoryBytes() const { return heap_.memoryBytes(); }
 
   private:
@@ -142,18 +164,41 @@ class SplitMerge {
     void spreadRekey();
     /// Merge candidates out of view since the view turned, found by a sweep.
     void sweepCulled(const ViewMetric& m, SplitMergeMesh& mesh);
+    /// This round's priced merges (lowest priority first) and splits (highest first), within
+    /// the frame's budget; what it leaves is deferred.
+    void doMerges(FrameStats& stats, SplitMergeMesh& mesh);
+    void doSplits(FrameStats& stats, SplitMergeMesh& mesh);
+    /// A priced split or merge the frame's budget (or a refusal) left: into the backlog.
+    void defer(const Action& a, std::uint8_t kind);
+    /// The backlog's best, due this frame (backlog_pull_ of each kind).
+    void pullBacklog();
+    /// Orders of merges (lowest priority first) and splits (highest first); equal priorities
+    /// (every culled merge is 0) by id, so the order never depends on the order of pricing.
+    static bool lowerPriority(const Action& a, const Action& b) {
+        return a.priority < b.priority || (a.priority == b.priority && a.id > b.id);
+    }
+    static bool higherPriority(const Action& a, const Action& b) {
+        return a.priority > b.priority || (a.priority == b.priority && a.id > b.id);
+    }
 
     DiamondSpace* space_;
     double tau_ = 1.0;
     double threshold_ = 1.0;
+    double merge_band_ = 1.0;
     CandidateHeap heap_;             ///< candidates by the eye travel at which to re-examine them
     std::vector<DiamondId> watched_; ///< split candidates that want a split but are culled
     std::vector<DiamondId> watched_next_;
     std::vector<Action> splits_;
     std::vector<Action> merges_;
     std::vector<DiamondId> due_;
+    std::vector<DiamondId> pulled_; ///< pullBacklog's scratch
     std::vector<DiamondId> evaluating_;
-    std::vector<DiamondId> deferred_;
+    std::vector<DiamondId> deferred_splits_; ///< this frame's, for settled()
+    /// What spent budgets left: splits as a max-heap, merges as a min-heap of the priority they
+    /// had when priced (their candidate bits stay set; they are in neither the heap nor due_).
+    std::vector<Action> backlog_splits_;
+    std::vector<Action> backlog_merges_;
+    std::size_t backlog_pull_ = kPullAll;
     double unmet_ = 0.0; ///< largest priority of a split the frame wanted and did not make
     std::vector<DiamondId> rekey_; ///< candidates still keyed against rekey_from_
     double rekey_from_ = 0.0;

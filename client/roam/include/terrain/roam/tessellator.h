@@ -38,6 +38,7 @@
 #include <terrain/roam/frame_stats.h>
 #include <terrain/roam/lattice.h>
 #include <terrain/roam/lattice_ids.h>
+#include <terrain/roam/move_census.h>
 #include <terrain/roam/packed_bounds.h>
 #include <terrain/roam/split_merge.h>
 #include <terrain/roam/tessellator_options.h>
@@ -47,7 +48,9 @@
 #include <terrain/roam/update_phases.h>
 #include <terrain/terrain.h>
 
+#include <algorithm>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <utility>
 #include <vector>
@@ -76,9 +79,34 @@ class Tessellator {
         terrainChanged({}, true);
     }
 
+    /// The cells whose surface changed since takeChangedCells() (the rectangles told, merged per
+    /// call), or all of them (a new world, or more rectangles than it keeps): what a reader that
+    /// keeps the surface between frames (a vertex builder's cell grids) must read again.
+    std::span<const CellRect> changedCells() const { return changed_cells_; }
+    bool allCellsChanged() const { return all_cells_changed_; }
+    void takeChangedCells() {
+        changed_cells_.clear();
+        all_cells_changed_ = false;
+    }
+
+    /// Whether the mesh over `cells` is done with every change told so far: no block whose
+    /// window meets them waits for its bounds, and no split there waits for a budget (a
+    /// waiting merge only keeps triangles the view no longer needs). A crater has converged
+    /// once its cells are settled. O(cells + the splits waiting).
+    bool settled(CellRect cells) const;
+
     void setTau(double tau_pixels);
     /// A new triangle cap, followed over the next frames (the threshold moves; no rebuild).
     void setMaxTriangles(std::int64_t max_triangles) { options_.max_triangles = max_triangles; }
+    /// Short steps (a worker's): each update() ends at `deadline` (read through it; null: the
+    /// budgets alone, one whole frame per update). Stale bounds take up to half the step, oldest
+    /// first; then the splits, largest error first, and the merges (which only free triangles)
+    /// with what is left, or first while the mesh nears its cap. What a step leaves waits: the
+    /// blocks in the stale queue, the priced splits and merges in the policy's backlog (a step
+    /// prices again only kStepBacklogPull of each kind), the candidates not yet priced due. The
+    /// threshold follows the cap once per view, not per step. Not owned.
+    void setStepDeadline(const StepDeadline* deadline);
+    static constexpr std::size_t kStepBacklogPull = 2048;
     /// The threshold the mesh is refined to: tau_pixels, or higher while the cap binds.
     double threshold() const { return policy_.threshold(); }
     /// Splits the diamond centred at `p`, forcing every ancestor it needs, whatever the metric
@@ -277,8 +305,28 @@ class Tessellator {
     std::int64_t uploadSpent() const { return uploadTotal() - upload_at_frame_start_; }
     std::int64_t uploadTotal() const { return emitter_.uploadBytes(); }
     /// Either budget spent: what is left waits for the next frame.
-    /// The work budget, or `upload_share` of the upload budget, is spent.
-    bool budgetSpent(FrameStats& stats, double upload_share) const;
+    /// `work_share` of the work budget, or `upload_share` of the upload budget, is spent.
+    /// `time_share` of a short step, once `min_work` is done.
+    bool budgetSpent(
+        FrameStats& stats,
+        double upload_share,
+        double time_share = 1.0,
+        std::int64_t min_work = kStepMinWork) const;
+    /// In short steps, merges made before the splits (at a cap) may spend this share of a step,
+    /// and stale bounds as much: neither takes the whole step from the splits the view needs.
+    static constexpr double kStepMergeShare = 0.5;
+    static constexpr double kStepBoundsShare = 0.5;
+    /// Pricing stops at this share of a short step, so that the moves have the rest; and a
+    /// step makes at least kStepMinWork of work, however short it is.
+    static constexpr double kStepPricingShare = 0.5;
+    static constexpr std::int64_t kStepMinWork = 16;
+    const StepDeadline* deadline_ = nullptr; ///< short steps (setStepDeadline)
+    Camera last_camera_{};
+    static bool sameView(const Camera& a, const Camera& b) {
+        return a.eye == b.eye && a.forward == b.forward && a.up == b.up &&
+               a.fovy_radians == b.fovy_radians && a.viewport_width == b.viewport_width &&
+               a.viewport_height == b.viewport_height && a.near_plane == b.near_plane;
+    }
     /// Merges may spend three quarters of the upload budget: the splits the view needs get the
     /// rest even while a risen threshold has thousands of merges due. Measured in the battle at
     /// the triangle cap (client_battle_bench --async --lockstep, error bound p50 / p99 px):
@@ -344,6 +392,14 @@ class Tessellator {
     std::int64_t triangles_ = 0;
     std::int64_t missing_block_refusals_ = 0;
     UpdatePhaseObserver* phases_ = nullptr;
+    std::unique_ptr<MoveCensus> census_;  ///< with options_.count_moves_by_place
+    std::vector<CellRect> changed_cells_; ///< since takeChangedCells()
+    bool all_cells_changed_ = true;
+    static constexpr std::size_t kMaxChangedCells = 256; ///< rectangles kept, then "all"
+    void countMove(const Diamond& d, DiamondId id, bool split, FrameStats& stats) {
+        if (census_)
+            census_->moved(d.centre, id, split, frame_, stats);
+    }
     void enter(UpdatePhase phase) {
         if (phases_ != nullptr)
             phases_->enter(phase);

@@ -47,6 +47,15 @@ struct TessellatorOptions {
     /// much turning (sampled in a low-discrepancy order, so not exactly each one), and every one
     /// on a turn of this much in one frame. Out-of-view regions merge within about this turn.
     double cull_sweep_degrees = 4.0;
+    /// Hysteresis: a split diamond merges only once its priority falls to this share of the
+    /// threshold (it split above the threshold). 1: merge as soon as it may (the mesh a
+    /// top-down build at the threshold makes). Below 1, a diamond that hovers at the threshold
+    /// (the eye drifting, a crater's new bounds) is not merged and split again: fewer moves and
+    /// re-pricings, a few more triangles; the error bound is the threshold either way.
+    double merge_band = 1.0;
+    /// Counts where the moves land (FrameStats::moves_in_footprint, moves_undone; MoveCensus):
+    /// benchmarks. About 1 MB per million cells, and a lookup and a hash insert per move.
+    bool count_moves_by_place = false;
 };
 
 } // namespace terrain::roam

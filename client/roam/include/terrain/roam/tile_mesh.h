@@ -56,6 +56,14 @@ class TileMesh {
     std::span<const std::uint32_t> indices() const { return indices_; }
     std::uint32_t slotCount() const { return static_cast<std::uint32_t>(keys_of_slots_.size()); }
     std::uint32_t triangleCount() const { return live_; }
+    /// Whether a triangle of the list uses vertex `index` (of the tile's array): most of a
+    /// tile's array is not (the base grid a coarse tile skips, the grains' points a block's
+    /// triangles do not reach), and nothing needs what no triangle draws.
+    bool referenced(std::uint32_t index) const { return index < uses_.size() && uses_[index] != 0; }
+    /// Vertices a triangle came to use since takeChanges() (no triangle did before); when more
+    /// came than it keeps (nobody took the changes for long), every vertex may have.
+    std::span<const std::uint32_t> newlyReferenced() const { return newly_used_; }
+    bool manyNewlyReferenced() const { return newly_overflow_; }
 
     /// True once anything was written since takeChanges().
     bool dirty() const { return !dirty_pages_.empty() || cleared_; }
@@ -73,7 +81,8 @@ class TileMesh {
         return indices_.capacity() * sizeof(std::uint32_t) +
                dirty_pages_.capacity() * sizeof(std::uint32_t) + page_dirty_.capacity() +
                keys_of_slots_.capacity() * sizeof(std::uint32_t) +
-               free_slots_.capacity() * sizeof(std::uint32_t) +
+               free_slots_.capacity() * sizeof(std::uint32_t) + uses_.capacity() +
+               newly_used_.capacity() * sizeof(std::uint32_t) +
                table_.capacity() * sizeof(std::uint64_t);
     }
 
@@ -106,7 +115,14 @@ class TileMesh {
     void appendSlot();
     void write(std::uint32_t slot, const Indices& indices);
 
+    void use(const Indices& indices, int by);
+    /// Newly referenced vertices kept before "every vertex may have" (manyNewlyReferenced).
+    std::size_t newlyLimit() const { return uses_.size() / 8 + 256; }
     std::vector<std::uint32_t> indices_;
+    /// Per vertex of the tile's array: the triangles that use it (at most 8 in a 4-8 mesh).
+    std::vector<std::uint8_t> uses_;
+    std::vector<std::uint32_t> newly_used_;
+    bool newly_overflow_ = false;
     std::vector<std::uint32_t> keys_of_slots_; ///< kNoKey for a free slot
     std::vector<std::uint32_t> free_slots_;
     // open addressing, linear probing, backward-shift deletion; at most 3/4 full

@@ -38,13 +38,20 @@ class TileVertexBuilder {
     /// Forgets the cached cell grids: once a frame, before the first build (the terrain may
     /// have changed since the last).
     void newFrame();
-    /// The vertices [first, first + out.size()) of the tile's array.
+    /// Forgets the cached grids of `cells` only (the rest of the terrain did not change): a
+    /// builder told every change keeps its grids from one build to the next.
+    void forget(CellRect cells);
+    /// The vertices [first, first + out.size()) of the tile's array. With `drawn`, only those
+    /// its triangles use: most of an array is drawn by none (the base grid a coarse tile skips,
+    /// the grain points a block's triangles do not reach). The others stand in as the tile's
+    /// first vertex (a base vertex keeps its height), facing up.
     void build(
         const Tessellator& tess,
         const Terrain& terrain,
         std::int32_t tile,
         std::uint32_t first,
-        std::span<DrawVertex> out);
+        std::span<DrawVertex> out,
+        const TileMesh* drawn = nullptr);
     /// Positions and heights only (normal 0): cheap, for validation.
     void positions(
         const Tessellator& tess, std::int32_t tile, std::uint32_t first, std::span<DrawVertex> out);
@@ -59,7 +66,8 @@ class TileVertexBuilder {
 
     std::vector<TileVertex> keys_;
     std::unordered_map<std::uint64_t, std::uint32_t> cell_slot_; ///< (cx, cy) -> grid slot
-    std::vector<std::int64_t> grids_; ///< kBlockVertices heights per slot
+    std::vector<std::int64_t> grids_;       ///< kBlockVertices heights per slot
+    std::vector<std::uint32_t> free_slots_; ///< slots of forgotten grids
     std::uint64_t last_key_ = ~std::uint64_t{0};
     const std::int64_t* last_grid_ = nullptr;
 };

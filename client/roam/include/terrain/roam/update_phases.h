@@ -25,4 +25,15 @@ class UpdatePhaseObserver {
     virtual void enter(UpdatePhase phase) = 0;
 };
 
+/// The end of a worker's short step, as the tessellator's budgets read it: the tessellator asks,
+/// the edge reads the clock.
+class StepDeadline {
+  public:
+    /// Whether `share` of the step's time is spent (1: all of it).
+    virtual bool spent(double share) const = 0;
+
+  protected:
+    ~StepDeadline() = default;
+};
+
 } // namespace terrain::roam

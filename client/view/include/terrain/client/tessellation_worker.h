@@ -25,6 +25,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -40,6 +41,11 @@ struct TessellationWorkerOptions {
     /// Keeps every step's WorkerStep for stepLog() (benchmarks: the deltas the frame thread
     /// never took count too).
     bool keep_step_log = false;
+    /// Not in lockstep: the time a step's tessellation may take (ms; Tessellator::
+    /// setStepDeadline says how it is shared); the work left waits for the next steps, which
+    /// follow at once with the newest camera, and a step that brings ops hands their heights
+    /// over before any move. 0: every post is one whole step (the old way, for comparison).
+    double step_ms = 4.0;
     /// Threads a step may spread its independent work over (the worker's own included): the
     /// stale bounds pass (per square of cells) and the delta's vertices and pages (per group of
     /// tiles). 0: defaultThreads(). The meshes and deltas are the same at any count.
@@ -59,6 +65,11 @@ struct WorkerStep {
     std::uint64_t replay_failures = 0;
     std::int64_t max_triangles = 0; ///< the cap the step ran under (the frame budget moves it)
     std::uint64_t world_hash = 0;
+    /// Every op up to this seq has converged in the step's mesh: the cells it changed are
+    /// settled (Tessellator::settled: their bounds are the new surface's, and no split or merge
+    /// there waits for a budget). Ops converge in order here: one that settles before an
+    /// earlier one is counted when the earlier one is.
+    std::uint64_t settled_seq = 0;
     double threshold = 0.0; ///< the tessellator's threshold after the step (pixels)
     roam::FrameStats stats;
     /// Worker time for the step (ms): applying the changes to its world, telling the
@@ -71,6 +82,11 @@ struct WorkerStep {
     double collect_ms = 0.0;
     std::array<double, roam::kUpdatePhases> phase_ms{};
     std::uint64_t delta_bytes = 0; ///< the delta's payload (vertices and index pages)
+    /// A delta handed over after the step's ops moved the heights and before its moves (the
+    /// step itself follows as another delta).
+    bool heights_only = false;
+    /// The step handed its ops' heights over before its moves (a heights_only delta).
+    bool heights_first = false;
 };
 
 class TessellationWorker {
@@ -163,6 +179,19 @@ class TessellationWorker {
     roam::DeltaCollector collector_;
     std::unique_ptr<ThreadPool> pool_; ///< the step's helpers (none at one thread)
     bool published_ = false;
+    /// Ops whose cells are not settled yet, in seq order, with those cells.
+    std::deque<std::pair<std::uint64_t, CellRect>> unsettled_;
+    /// Follows the ops a change brings (their cells, from the world's dirty set) and what has
+    /// settled after a step; returns the step's settled_seq.
+    void noteReplayed(const ReplicaChange& change);
+    std::uint64_t settledSeq();
+    /// Collects the tessellator's changes into the back slot with `info` (its collect time and
+    /// bytes added) and makes it the newest finished delta.
+    void publish(WorkerStep& info);
+    /// The frame thread has taken the last delta published.
+    bool frameTookLast() const;
+    class StepClock;
+    std::unique_ptr<StepClock> step_clock_; ///< short steps' deadline (not in lockstep)
 
     std::thread thread_;
 };
