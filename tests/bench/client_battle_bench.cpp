@@ -47,6 +47,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <deque>
@@ -640,9 +641,20 @@ Json asyncReportOf(
             per_op_ms.push_back(total / static_cast<double>(w.ops));
     }
     // where the moves land, over every step (MoveCensus)
-    double moves = 0.0, in_footprint = 0.0, undone = 0.0, ops = 0.0;
+    double moves = 0.0, in_footprint = 0.0, undone = 0.0, ops = 0.0, evaluations = 0.0;
+    double rebounds = 0.0, busy_ms = 0.0;
+    // per crater all told: apply, absorb, update's phases (UpdatePhase order), collect
+    std::array<double, 3 + roam::kUpdatePhases> part_ms{};
     for (const client::WorkerStep& w : t.steps) {
         moves += static_cast<double>(w.stats.splits + w.stats.merges);
+        evaluations += static_cast<double>(w.stats.evaluations);
+        rebounds += static_cast<double>(w.stats.stale_blocks_bounded);
+        busy_ms += w.apply_ms + w.absorb_ms + w.update_ms + w.collect_ms;
+        part_ms[0] += w.apply_ms;
+        part_ms[1] += w.absorb_ms;
+        for (std::size_t k = 0; k < roam::kUpdatePhases; ++k)
+            part_ms[2 + k] += w.phase_ms[k];
+        part_ms[2 + roam::kUpdatePhases] += w.collect_ms;
         in_footprint += static_cast<double>(w.stats.moves_in_footprint);
         undone += static_cast<double>(w.stats.moves_undone);
         ops += static_cast<double>(w.ops);
@@ -733,6 +745,19 @@ Json asyncReportOf(
               static_cast<double>(battle.sent.size()) - static_cast<double>(converged.n)},
              {"error_bound_until_converged_px", summaryJson(bound_meanwhile)},
              {"moves_per_crater", moves * per_op},
+             {"evaluations_per_crater", evaluations * per_op},
+             {"blocks_rebounded_per_crater", rebounds * per_op},
+             {"worker_ms_per_crater", busy_ms * per_op},
+             {"worker_ms_per_crater_by_part",
+              Json{
+                  {"apply", part_ms[0] * per_op},
+                  {"absorb", part_ms[1] * per_op},
+                  {"stale_bounds", part_ms[2] * per_op},
+                  {"rebuild", part_ms[3] * per_op},
+                  {"split_merge", part_ms[4] * per_op},
+                  {"finish_frame", part_ms[5] * per_op},
+                  {"pool_upkeep", part_ms[6] * per_op},
+                  {"collect", part_ms[7] * per_op}}},
              {"moves_in_footprint_per_crater", in_footprint * per_op},
              {"moves_elsewhere_per_crater", (moves - in_footprint) * per_op},
              {"moves_undone_per_crater", undone * per_op},
@@ -782,10 +807,17 @@ Json asyncReportOf(
     std::printf(
         "  craters: drawn after p50 %.0f p99 %.0f max %.0f frames, converged after p50 %.0f p99 "
         "%.0f max %.0f (%zu of %zu), error bound until then p50 %.2f p99 %.2f px; moves per "
-        "crater %.0f: %.0f in its footprint, %.0f elsewhere, %.0f undoing one (%.0f %%)\n",
+        "crater %.0f: %.0f in its footprint, %.0f elsewhere, %.0f undoing one (%.0f %%); per "
+        "crater all told: worker %.2f ms, %.0f evaluations, %.0f blocks re-bounded\n",
         drawn.p50, drawn.p99, drawn.max, converged.p50, converged.p99, converged.max, converged.n,
         battle.sent.size(), bound_meanwhile.p50, bound_meanwhile.p99, moves * per_op,
-        in_footprint * per_op, (moves - in_footprint) * per_op, undone * per_op, undone * share);
+        in_footprint * per_op, (moves - in_footprint) * per_op, undone * per_op, undone * share,
+        busy_ms * per_op, evaluations * per_op, rebounds * per_op);
+    std::printf(
+        "  worker ms per crater all told: apply %.2f, absorb %.2f, stale bounds %.2f, rebuild "
+        "%.2f, split/merge %.2f, finish %.2f, pool %.2f, collect %.2f\n",
+        part_ms[0] * per_op, part_ms[1] * per_op, part_ms[2] * per_op, part_ms[3] * per_op,
+        part_ms[4] * per_op, part_ms[5] * per_op, part_ms[6] * per_op, part_ms[7] * per_op);
     if (!measured.p99.empty())
         std::printf(
             "  measured error of %zu drawn frames (every %d): per-frame p99 px p50 %.2f p99 %.2f "

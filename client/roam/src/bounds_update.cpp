@@ -343,6 +343,25 @@ void BoundsUpdate::boundBlocks(std::span<const std::int32_t> blocks, PassListene
     boundBlocks(blocks, false, listener);
 }
 
+void BoundsUpdate::boundGrainsOf(std::span<const std::pair<std::int32_t, unsigned>> requests) {
+    if (requests.empty())
+        return;
+    std::vector<std::int32_t>& blocks = requested_;
+    blocks.clear();
+    for (const auto& [block, mask] : requests) {
+        if (static_cast<std::size_t>(block) >= grain_masks_.size())
+            grain_masks_.resize(static_cast<std::size_t>(block) + 1, 0);
+        grain_masks_[static_cast<std::size_t>(block)] = mask;
+        blocks.push_back(block);
+    }
+    boundBlocks(blocks, false, nullptr);
+    for (const std::int32_t block : blocks) {
+        grain_masks_[static_cast<std::size_t>(block)] = 0;
+        if (const std::int32_t tile = tileOfCell(blocks_.cellOf(block)); tile >= 0)
+            vertices_.bumpVersion(tile);
+    }
+}
+
 void BoundsUpdate::boundBlocks(
     std::span<const std::int32_t> blocks, bool collect, PassListener* listener) {
     sortIntoSquares(blocks);
@@ -370,7 +389,10 @@ void BoundsUpdate::boundSquares(
     kernel_.compute(*terrain_, blocks_, geometry, pass_cells_);
     for (std::size_t i = first; i < last; ++i) {
         const std::int32_t b = pass_blocks_[i];
-        storePass(i - first, b, residentGrains(b), collect);
+        const unsigned mask = static_cast<std::size_t>(b) < grain_masks_.size()
+                                  ? grain_masks_[static_cast<std::size_t>(b)]
+                                  : 0u;
+        storePass(i - first, b, mask != 0 ? mask : residentGrains(b), collect);
         if (listener != nullptr)
             listener->bounded(i - first, b);
     }

@@ -25,9 +25,12 @@ void SplitMerge::clearCandidates() {
     watched_.clear();
     rekey_.clear();
     due_.clear();
+    carried_ = 0;
     deferred_splits_.clear();
     backlog_splits_.clear();
     backlog_merges_.clear();
+    left_splits_.clear();
+    left_merges_.clear();
     splits_.clear();
     merges_.clear();
 }
@@ -81,6 +84,7 @@ void SplitMerge::settle(const ViewMetric& m, FrameStats& stats, SplitMergeMesh& 
     for (const DiamondId id : due_)
         evaluate(m, id, stats, mesh);
     due_.clear();
+    carried_ = 0;
     // only a binding cap leaves work here; it waits for the next frame
     for (const Action& a : splits_)
         heap_.push(a.id, travel_);
@@ -133,31 +137,43 @@ void SplitMerge::sweepCulled(const ViewMetric& m, SplitMergeMesh& mesh) {
     }
 }
 
-double
-SplitMerge::frame(const ViewMetric& m, double travelled, FrameStats& stats, SplitMergeMesh& mesh) {
+double SplitMerge::frame(
+    const ViewMetric& m, double travelled, FrameStats& stats, SplitMergeMesh& mesh, bool new_view) {
     travel_ += travelled;
     unmet_ = 0.0;
     // while a threshold move is being spread, candidates not yet re-examined still hold to the
     // threshold before it
     const double threshold = rekey_.empty() ? threshold_ : std::max(threshold_, rekey_from_);
-    spreadRekey();
-    sweepCulled(m, mesh);
-    for (const DiamondId id : due_)
-        if (heap_.contains(id))
-            heap_.remove(id);
+    // (a short step that goes on with the last view has nothing new to sweep, re-key or watch)
+    if (new_view) {
+        spreadRekey();
+        sweepCulled(m, mesh);
+    }
+    // offered since the last frame: out of the heap (what a short step carried over never was)
+    for (std::size_t i = carried_; i < due_.size(); ++i)
+        if (heap_.contains(due_[i]))
+            heap_.remove(due_[i]);
     while (!heap_.empty() && heap_.top().key <= travel_) {
         const DiamondId id = heap_.top().id;
         heap_.remove(id);
         due_.push_back(id);
     }
+    if (new_view) {
+        watched_next_.swap(watched_);
+        watched_.clear();
+        for (const DiamondId id : watched_next_)
+            if ((space_->state(id) & kWatched) != 0) {
+                space_->state(id) = static_cast<std::uint8_t>(space_->state(id) & ~kWatched);
+                due_.push_back(id);
+            }
+    }
+    // the backlog's best are priced first (known to matter)
     pullBacklog();
-    watched_next_.swap(watched_);
-    watched_.clear();
-    for (const DiamondId id : watched_next_)
-        if ((space_->state(id) & kWatched) != 0) {
-            space_->state(id) = static_cast<std::uint8_t>(space_->state(id) & ~kWatched);
-            due_.push_back(id);
-        }
+    if (!pulled_.empty()) {
+        pulled_.insert(pulled_.end(), due_.begin(), due_.end());
+        due_.swap(pulled_);
+        pulled_.clear();
+    }
     deferred_splits_.clear();
     const bool stepping = backlog_pull_ != kPullAll;
     while (!due_.empty()) {
@@ -181,10 +197,12 @@ SplitMerge::frame(const ViewMetric& m, double travelled, FrameStats& stats, Spli
         // cap and needs the room; otherwise merges first, so a binding cap has room for splits
         if (backlog_pull_ != kPullAll && !mesh.needsRoom()) {
             doSplits(stats, mesh);
+            mesh.splitsDone();
             doMerges(stats, mesh);
         } else {
             doMerges(stats, mesh);
             doSplits(stats, mesh);
+            mesh.splitsDone();
         }
         if (mesh.budgetSpent(stats)) {
             stats.budget_exhausted = true;
@@ -197,9 +215,17 @@ SplitMerge::frame(const ViewMetric& m, double travelled, FrameStats& stats, Spli
             } // (short steps keep them due: the next step prices them first)
             break;
         }
+        if (stepping && due_.empty()) {
+            // time left in the step: the backlog's next best
+            pullBacklog();
+            due_.swap(pulled_);
+            pulled_.clear();
+        }
     }
+    carried_ = due_.size();
     // what the budget left waits in the backlog, by the priority it had: the next frames price
     // again only the share they may act on, best first
+    keepLeft();
     if (!backlog_splits_.empty())
         unmet_ = std::max(unmet_, backlog_splits_.front().priority);
     stats.backlog = static_cast<std::int64_t>(backlogSize() + due_.size());
@@ -241,13 +267,21 @@ void SplitMerge::defer(const Action& a, std::uint8_t kind) {
         heap_.push(a.id, travel_);
         return;
     }
-    if (kind == kSplitCandidate) {
+    // (into the backlog when the frame ends: not priced again in the frame that left it)
+    (kind == kSplitCandidate ? left_splits_ : left_merges_).push_back(a);
+}
+
+void SplitMerge::keepLeft() {
+    for (const Action& a : left_splits_) {
         backlog_splits_.push_back(a);
         std::push_heap(backlog_splits_.begin(), backlog_splits_.end(), lowerPriority);
-    } else {
+    }
+    for (const Action& a : left_merges_) {
         backlog_merges_.push_back(a);
         std::push_heap(backlog_merges_.begin(), backlog_merges_.end(), higherPriority);
     }
+    left_splits_.clear();
+    left_merges_.clear();
 }
 
 void SplitMerge::setBacklogPull(std::size_t per_frame) {
@@ -268,7 +302,6 @@ void SplitMerge::pullBacklog() {
     // the best of what the budgets left, priced again this frame (still candidates of the same
     // kind, and not re-offered since: those are due or in the heap already)
     // (only up to what the frame can price: candidates the last frame left unpriced come first)
-    // (known to matter, they are priced first)
     const std::size_t room = backlog_pull_ > due_.size() ? backlog_pull_ - due_.size() : 0;
     pulled_.clear();
     const auto pull = [&](std::vector<Action>& backlog, auto before, std::uint8_t kind) {
@@ -282,7 +315,6 @@ void SplitMerge::pullBacklog() {
     };
     pull(backlog_splits_, lowerPriority, kSplitCandidate);
     pull(backlog_merges_, higherPriority, kMergeCandidate);
-    due_.insert(due_.begin(), pulled_.begin(), pulled_.end());
 }
 
 void SplitMerge::followCap(
@@ -296,8 +328,11 @@ void SplitMerge::followCap(
     double next = threshold_;
     if (stats.refused_by_cap > 0 || triangles > max_triangles) { // or a lower cap
         // each refused split wanted at least two triangles more: a view that changed a lot
-        // takes a bigger step (as if the count went with the inverse of the threshold)
-        const double wanted = static_cast<double>(triangles + 2 * stats.refused_by_cap);
+        // takes a bigger step (as if the count went with the inverse of the threshold). In
+        // short steps the refusals count the backlog tried again step after step, not what the
+        // view wants: the smallest step
+        const std::int64_t refused = backlog_pull_ == kPullAll ? stats.refused_by_cap : 0;
+        const double wanted = static_cast<double>(triangles + 2 * refused);
         const double ratio = wanted / (kCapTarget * static_cast<double>(max_triangles));
         next = threshold_ * std::clamp(ratio, kCapStepUp, kCapStepMax);
     } else if (
@@ -362,6 +397,7 @@ void SplitMerge::chunksCut(
     rename(rekey_);
     rename(deferred_splits_);
     rename(due_); // (short steps carry candidates not yet priced over to the next)
+    carried_ = 0;
     const auto rename_actions = [&](std::vector<Action>& actions, auto before) {
         std::erase_if(actions, [&](Action& a) {
             DiamondId id = a.id;

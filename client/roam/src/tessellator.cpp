@@ -55,6 +55,7 @@ struct Tessellator::PolicyMesh final : SplitMergeMesh {
             t_.deactivate(d, id, stats);
     }
     bool budgetSpent(FrameStats& stats) const override { return t_.budgetSpent(stats, 1.0); }
+    void splitsDone() override { t_.boundBatched(); }
     bool needsRoom() const override {
         return static_cast<double>(t_.triangles_) >=
                kCapLow * static_cast<double>(t_.options_.max_triangles);
@@ -241,12 +242,16 @@ FrameStats Tessellator::update(const Camera& camera) {
     } else {
         enter(UpdatePhase::kSplitMerge);
         PolicyMesh mesh(*this);
+        const bool new_view = deadline_ == nullptr || !sameView(camera, last_camera_);
+        batching_ = true;
         stats.error_bound_pixels =
-            policy_.frame(m, glm::length(camera.eye - last_eye_), stats, mesh);
+            policy_.frame(m, glm::length(camera.eye - last_eye_), stats, mesh, new_view);
+        boundBatched();
+        batching_ = false;
         stats.refused_by_cap += pool_refusals_ - pool_refusals; // the pool binds like the cap
         // a step that goes on with the last view (a worker's short steps) leaves the threshold
         // alone: each move re-prices every candidate, once a view is enough
-        if (deadline_ == nullptr || !sameView(camera, last_camera_))
+        if (new_view)
             policy_.followCap(
                 stats, triangles_, options_.max_triangles,
                 frame_ > last_pool_refusal_ + kPoolQuietFrames);

@@ -130,7 +130,9 @@ std::int32_t Tessellator::materialise(std::int32_t record) {
     pool_.adoptBlock(block, use_epoch_);
     space_.clearChunk(0, block);
     attachGrain(block, 0);
-    if (!defer_bounds_)
+    if (batching_)
+        batch(block, 1u);
+    else if (!defer_bounds_)
         bounds_.boundGrains(block, 1u);
     ++materialised_;
     return block;
@@ -142,9 +144,25 @@ void Tessellator::materialiseGrain(std::int32_t block, int g) {
         resizeDiamondState();
     space_.clearChunk(g, chunk);
     attachGrain(block, g);
-    if (!defer_bounds_)
+    if (batching_)
+        batch(block, 1u << g);
+    else if (!defer_bounds_)
         bounds_.boundGrains(block, 1u << g);
     ++grains_materialised_;
+}
+
+void Tessellator::batch(std::int32_t block, unsigned grains) {
+    for (auto& [b, mask] : batched_)
+        if (b == block) {
+            mask |= grains;
+            return;
+        }
+    batched_.emplace_back(block, grains);
+}
+
+void Tessellator::boundBatched() {
+    bounds_.boundGrainsOf(batched_);
+    batched_.clear();
 }
 
 struct Tessellator::PrefetchGrains final : BoundsUpdate::PassListener {

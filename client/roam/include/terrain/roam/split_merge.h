@@ -48,6 +48,9 @@ class SplitMergeMesh {
     virtual bool budgetSpent(FrameStats& stats) const = 0;
     /// The mesh nears its triangle cap: merges must make room before the splits.
     virtual bool needsRoom() const { return true; }
+    /// A round of splits is done: what they made is ready to be priced (the mesh may finish
+    /// work it left for this moment).
+    virtual void splitsDone() {}
     /// The share of a short step that pricing may take is spent (the moves need the rest).
     virtual bool pricingBudgetSpent(FrameStats& stats) const { return budgetSpent(stats); }
     /// The share of the frame's budget merges may spend is: a mesh whose threshold rose (the
@@ -118,7 +121,14 @@ class SplitMerge {
     void restartSweep(const Camera& camera);
     /// A split/merge frame: the eye moved `travelled` metres. Returns the error bound the mesh
     /// is within once it is done (the threshold, or the largest priority left waiting).
-    double frame(const ViewMetric& m, double travelled, FrameStats& stats, SplitMergeMesh& mesh);
+    /// `new_view` false: a short step going on with the last frame's view (nothing to sweep,
+    /// re-key or watch again).
+    double frame(
+        const ViewMetric& m,
+        double travelled,
+        FrameStats& stats,
+        SplitMergeMesh& mesh,
+        bool new_view = true);
 
     // the pool compacts chunks (BlockPool::Mover)
     /// Grain g's chunk `from` moved to `to` (the space's states moved already): heap entries
@@ -172,6 +182,8 @@ class SplitMerge {
     void defer(const Action& a, std::uint8_t kind);
     /// The backlog's best, due this frame (backlog_pull_ of each kind).
     void pullBacklog();
+    /// What this frame left (defer) into the backlog.
+    void keepLeft();
     /// Orders of merges (lowest priority first) and splits (highest first); equal priorities
     /// (every culled merge is 0) by id, so the order never depends on the order of pricing.
     static bool lowerPriority(const Action& a, const Action& b) {
@@ -192,12 +204,15 @@ class SplitMerge {
     std::vector<Action> merges_;
     std::vector<DiamondId> due_;
     std::vector<DiamondId> pulled_; ///< pullBacklog's scratch
+    std::size_t carried_ = 0;       ///< due_'s first entries, carried over by a short step
     std::vector<DiamondId> evaluating_;
     std::vector<DiamondId> deferred_splits_; ///< this frame's, for settled()
     /// What spent budgets left: splits as a max-heap, merges as a min-heap of the priority they
     /// had when priced (their candidate bits stay set; they are in neither the heap nor due_).
     std::vector<Action> backlog_splits_;
     std::vector<Action> backlog_merges_;
+    std::vector<Action> left_splits_; ///< deferred this frame (the backlog's at its end)
+    std::vector<Action> left_merges_;
     std::size_t backlog_pull_ = kPullAll;
     double unmet_ = 0.0; ///< largest priority of a split the frame wanted and did not make
     std::vector<DiamondId> rekey_; ///< candidates still keyed against rekey_from_

@@ -106,7 +106,7 @@ class Tessellator {
     /// prices again only kStepBacklogPull of each kind), the candidates not yet priced due. The
     /// threshold follows the cap once per view, not per step. Not owned.
     void setStepDeadline(const StepDeadline* deadline);
-    static constexpr std::size_t kStepBacklogPull = 2048;
+    static constexpr std::size_t kStepBacklogPull = 512;
     /// The threshold the mesh is refined to: tau_pixels, or higher while the cap binds.
     double threshold() const { return policy_.threshold(); }
     /// Splits the diamond centred at `p`, forcing every ancestor it needs, whatever the metric
@@ -254,6 +254,13 @@ class Tessellator {
     void prefetchBlocks(const ViewMetric& m, double threshold);
     /// During prefetchBlocks' bounds pass: makes the finer grains the build will need.
     struct PrefetchGrains;
+    /// Split/merge frames make the blocks and grains their splits need with their bounds left
+    /// for one pass at the end of each round of splits (boundBatched): nothing prices the new
+    /// diamonds before it (the children a split offers are priced in the next round).
+    bool batching_ = false;
+    std::vector<std::pair<std::int32_t, unsigned>> batched_; ///< block, grains made
+    void batch(std::int32_t block, unsigned grains);
+    void boundBatched();
     bool evictOne();
     /// Releases blocks (or their finer grains) idle for options_.detail_block_idle_frames, a
     /// few slots per frame.
