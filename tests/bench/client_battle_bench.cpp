@@ -489,6 +489,8 @@ struct AsyncTally {
     std::vector<double> to_drawn, to_converged, bound_until_converged;
     std::vector<DrawnSample> samples;
     std::vector<client::WorkerStep> steps;
+    double rss_mib = 0.0;        ///< after the flight (before the measures' samples are measured)
+    double drawn_mesh_mib = 0.0; ///< the frame's copy of the tiles
     int max_delay_frames = 0;
     bool hashes_agree = true;
 };
@@ -580,6 +582,8 @@ AsyncTally flyAsync(
     if (replica.worldHash() != battle.final_hash || worker.taken().world_hash != battle.final_hash)
         t.hashes_agree = false;
     t.steps = worker.stepLog();
+    t.drawn_mesh_mib = bench::mib(mesh.memoryBytes());
+    t.rss_mib = bench::mib(bench::residentBytes());
     return t;
 }
 
@@ -737,6 +741,12 @@ Json asyncReportOf(
                   {"evaluation", summaryJson(bench::summarize(per_evaluation_us))},
                   {"delta_kib", summaryJson(bench::summarize(per_collect_kib_us))}}}}},
         {"ops_waited_frames_max", t.max_delay_frames},
+        {"memory_mib",
+         Json{
+             {"rss_after_flight", t.rss_mib},
+             {"drawn_mesh", t.drawn_mesh_mib},
+             {"tessellator",
+              t.steps.empty() ? 0.0 : bench::mib(t.steps.back().tessellator_bytes)}}},
         {"craters",
          Json{
              {"frames_to_drawn", summaryJson(drawn)},
@@ -818,6 +828,11 @@ Json asyncReportOf(
         "%.2f, split/merge %.2f, finish %.2f, pool %.2f, collect %.2f\n",
         part_ms[0] * per_op, part_ms[1] * per_op, part_ms[2] * per_op, part_ms[3] * per_op,
         part_ms[4] * per_op, part_ms[5] * per_op, part_ms[6] * per_op, part_ms[7] * per_op);
+    std::printf(
+        "  memory after the flight: RSS %.1f MiB (the frame's copy of the tiles %.1f, the "
+        "worker's tessellator %.1f)\n",
+        t.rss_mib, t.drawn_mesh_mib,
+        t.steps.empty() ? 0.0 : bench::mib(t.steps.back().tessellator_bytes));
     if (!measured.p99.empty())
         std::printf(
             "  measured error of %zu drawn frames (every %d): per-frame p99 px p50 %.2f p99 %.2f "

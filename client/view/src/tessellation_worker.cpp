@@ -271,6 +271,7 @@ void TessellationWorker::run() {
         info.update_ms = msSince(start);
         info.threshold = view_->tessellator().threshold();
         info.settled_seq = settledSeq();
+        info.tessellator_bytes = view_->tessellator().memoryBytes();
         if (sliced) {
             // more to do: the step ended at its deadline with work left, or left a backlog it
             // could act on (one the cap refused waits for the threshold, not another step)

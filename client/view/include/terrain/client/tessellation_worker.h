@@ -87,6 +87,8 @@ struct WorkerStep {
     bool heights_only = false;
     /// The step handed its ops' heights over before its moves (a heights_only delta).
     bool heights_first = false;
+    /// The tessellator's memory after the step (Tessellator::memoryBytes).
+    std::uint64_t tessellator_bytes = 0;
 };
 
 class TessellationWorker {
