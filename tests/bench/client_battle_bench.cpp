@@ -745,8 +745,10 @@ Json asyncReportOf(
          Json{
              {"rss_after_flight", t.rss_mib},
              {"drawn_mesh", t.drawn_mesh_mib},
-             {"tessellator",
-              t.steps.empty() ? 0.0 : bench::mib(t.steps.back().tessellator_bytes)}}},
+             {"tessellator", t.steps.empty() ? 0.0 : bench::mib(t.steps.back().tessellator_bytes)},
+             {"hand_over", t.steps.empty() ? 0.0 : bench::mib(t.steps.back().collector_bytes)},
+             {"drawn_vertices", t.steps.empty() ? 0 : t.steps.back().drawn_vertices},
+             {"tessellator_vertices", t.steps.empty() ? 0 : t.steps.back().tessellator_vertices}}},
         {"craters",
          Json{
              {"frames_to_drawn", summaryJson(drawn)},
@@ -830,9 +832,13 @@ Json asyncReportOf(
         part_ms[4] * per_op, part_ms[5] * per_op, part_ms[6] * per_op, part_ms[7] * per_op);
     std::printf(
         "  memory after the flight: RSS %.1f MiB (the frame's copy of the tiles %.1f, the "
-        "worker's tessellator %.1f)\n",
+        "worker's tessellator %.1f, its hand-over %.1f); vertices drawn %llu of the "
+        "tessellator's %llu\n",
         t.rss_mib, t.drawn_mesh_mib,
-        t.steps.empty() ? 0.0 : bench::mib(t.steps.back().tessellator_bytes));
+        t.steps.empty() ? 0.0 : bench::mib(t.steps.back().tessellator_bytes),
+        t.steps.empty() ? 0.0 : bench::mib(t.steps.back().collector_bytes),
+        static_cast<unsigned long long>(t.steps.empty() ? 0 : t.steps.back().drawn_vertices),
+        static_cast<unsigned long long>(t.steps.empty() ? 0 : t.steps.back().tessellator_vertices));
     if (!measured.p99.empty())
         std::printf(
             "  measured error of %zu drawn frames (every %d): per-frame p99 px p50 %.2f p99 %.2f "

@@ -19,6 +19,7 @@
 #include <cmath>
 #include <cstring>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -210,46 +211,53 @@ TEST(MeshDelta, WithASmallPoolBlocksComeAndGoAndTheCopyKeepsUp) {
     EXPECT_GT(evicted, 50);
 }
 
-TEST(MeshDelta, OnlyTheVerticesATriangleUsesAreBuiltAndAVertexComingIntoUseFollows) {
-    // most of a tile's array is drawn by no triangle (the base grid a coarse tile skips, the
-    // grains' points a block's triangles do not reach): those stand in as the tile's first
-    // vertex in a delta and are sent once a triangle uses them. The copy is taken every step,
-    // then only every ninth (more vertices come into use between two deltas than a tile lists:
-    // every vertex is looked at)
+TEST(MeshDelta, TheCopysArraysHoldTheVerticesATriangleUsesAndLittleElse) {
+    // most of a tessellator's array is drawn by no triangle (the base grid a coarse tile skips,
+    // the grains' points a block's triangles do not reach): the copy holds a vertex at a slot
+    // from when a triangle uses it, and gives the slot to another once none does. The copy is
+    // taken every step, then only every ninth (more uses change between two deltas than a tile
+    // lists: every vertex is looked at); then the camera leaves (most slots free up: the tile
+    // is laid out afresh)
     Terrain t = world(23, 257);
     Tessellator tess(t, {});
     roam::DeltaCollector collector;
     MeshDelta delta;
     DrawnMesh copy;
-    std::size_t block_vertices = 0;
-    std::size_t left_out = 0;
-    for (int f = 0; f < 45; ++f) {
-        const double x = 40.0 + f * 4.0;
-        const double y = 60.0 + f * 3.0;
-        const glm::dvec3 eye(x, y, surfaceHeight(t, x, y) + 5.0);
+    std::size_t held_max = 0;
+    std::size_t array_max = 0;
+    std::size_t held_last = 0;
+    for (int f = 0; f < 60; ++f) {
+        const double x = f < 45 ? 40.0 + f * 4.0 : 220.0;
+        const double y = f < 45 ? 60.0 + f * 3.0 : 220.0;
+        const glm::dvec3 eye(x, y, surfaceHeight(t, x, y) + (f < 45 ? 5.0 : 120.0));
         tess.update(camera(eye, eye + glm::dvec3(0.8, 0.6, -0.3)));
-        if (f >= 20 && f % 9 != 0)
+        if (f >= 20 && f < 45 && f % 9 != 0)
             continue;
         collector.delivered();
         collector.collect(tess, t, delta);
-        for (const MeshDelta::Tile& e : delta.tiles)
-            for (std::uint32_t r = e.first_run; r < e.first_run + e.run_count; ++r)
-                for (std::uint32_t v = delta.runs[r].begin; v < delta.runs[r].end; ++v)
-                    if (v >= static_cast<std::uint32_t>(roam::kTileBaseVertices)) {
-                        ++block_vertices;
-                        const roam::DrawVertex& d =
-                            delta.vertices[delta.runs[r].at + v - delta.runs[r].begin];
-                        // (a block vertex is never at a tile's corner: the stand-in)
-                        left_out += d.x == static_cast<float>((e.tile % 4) * 1024) &&
-                                            d.y == static_cast<float>((e.tile / 4) * 1024)
-                                        ? 1
-                                        : 0;
-                    }
         ASSERT_TRUE(copy.apply(delta));
         ASSERT_EQ(difference(copy, tess, t, f % 3 == 0), "") << "after step " << f + 1;
+        std::size_t held = 0;
+        std::size_t array = 0;
+        for (std::int32_t k = 0; k < copy.tileCount(); ++k) {
+            const std::set<std::uint32_t> named(copy.indices(k).begin(), copy.indices(k).end());
+            const std::size_t slots = copy.vertices(k).size();
+            // a free slot for every two held, or 256 (then the tile is laid out afresh)
+            ASSERT_LE(slots, std::max(2 * named.size(), named.size() + 256))
+                << "tile " << k << " after step " << f + 1;
+            held += slots;
+            array += static_cast<std::size_t>(tess.tileVertexCount(k));
+        }
+        EXPECT_EQ(held, roam::DeltaCollector::slotCount(tess));
+        EXPECT_EQ(array, roam::DeltaCollector::tessellatorVertexCount(tess));
+        EXPECT_LT(held * 3, array) << "after step " << f + 1;
+        held_max = std::max(held_max, held);
+        array_max = std::max(array_max, array);
+        held_last = held;
     }
-    EXPECT_GT(block_vertices, 1000u);
-    EXPECT_GT(left_out * 2, block_vertices) << "most grain vertices are drawn by no triangle";
+    EXPECT_LT(held_last * 10, held_max) << "the copy shrinks with the detail drawn";
+    EXPECT_GT(array_max, static_cast<std::size_t>(tess.tileCount() * roam::kTileBaseVertices))
+        << "detail blocks came into the arrays";
 }
 
 TEST(MeshDelta, AMalformedDeltaIsRefusedWhole) {

@@ -81,6 +81,17 @@ TEST(RoamTileMesh, KeysFindTheirTrianglesThroughGrowthHolesAndShrinking) {
                 ++uses[first + k];
         for (std::uint32_t v = 0; v < 200010; v += 7)
             ASSERT_EQ(mesh.referenced(v), uses.count(v) != 0) << v;
+        // the drawn list names the same vertices through their slots, each slot one vertex's
+        const auto drawn = mesh.drawnIndices();
+        ASSERT_EQ(drawn.size(), idx.size());
+        for (std::size_t i = 0; i < idx.size(); i += 3) {
+            if (idx[i + 1] == 0)
+                continue;
+            for (std::size_t k = 0; k < 3; ++k)
+                ASSERT_EQ(mesh.vertexOfSlot(drawn[i + k]), idx[i + k]) << i;
+        }
+        // after fillHoles, at most half the slots (or 256) are free
+        ASSERT_LE(mesh.drawnVertexCount(), std::max(2 * uses.size(), uses.size() + 256));
     };
     for (int round = 0; round < 4; ++round) {
         for (int i = 0; i < 30000; ++i) {
@@ -116,12 +127,15 @@ TEST(RoamTileMesh, KeysFindTheirTrianglesThroughGrowthHolesAndShrinking) {
     }
     mesh.fillHoles();
     check();
-    // 12 bytes of indices, 4 of key and at most 16 of table entry per triangle, a quarter of
-    // growth on the lists; and a byte of reference count per vertex index up to the largest
-    // (here a million: real tiles' arrays hold about half as many vertices as triangles)
+    // 12 bytes of indices, 12 of drawn indices, 4 of key and at most 16 of table entry per
+    // triangle, a quarter of growth on the lists; a byte of reference count per vertex index up
+    // to the largest (here a million: real tiles' arrays hold about half as many vertices as
+    // triangles); and the slots: per used vertex (three a triangle here) at most 8 bytes doubled
+    // by growth, a 4-byte page number per 64 vertex indices, list of slots taken
     EXPECT_LE(
-        mesh.memoryBytes(),
-        expected.size() * 36 + 4096 + (1060003 + 1) * 5 / 4 + 64 + (1060003 / 8 + 256) * 4 * 5 / 4);
+        mesh.memoryBytes(), expected.size() * 48 + 4096 + (1060003 + 1) * 5 / 4 + 64 +
+                                expected.size() * 3 * 8 * 2 + (1060003 / 64 + 1) * 4 * 2 +
+                                (expected.size() * 3 / 4 + 256) * 4 * 2);
 }
 
 } // namespace

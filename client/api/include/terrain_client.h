@@ -126,9 +126,10 @@ typedef struct terrain_vertex_run {
 } terrain_vertex_run;
 
 /* One tile's buffers and what changed since terrain_client_mark_uploaded(). Dirty index pages
- * hold terrain_indices_per_page() indices each: [page * n, min((page + 1) * n, index_count)). A
- * vertex no index refers to stands in as the tile's first vertex, facing up (only what triangles
- * use is built): it is written, and in a run, once a triangle uses it. */
+ * hold terrain_indices_per_page() indices each: [page * n, min((page + 1) * n, index_count)).
+ * The vertices are those the tile's triangles use, each at a slot of its own while used; a slot
+ * no index refers to (free for the next vertex) holds an old vertex or a point of the tile: draw
+ * by index. */
 typedef struct terrain_tile {
     int visible; /* in the camera's view: draw only these */
     const terrain_vertex* vertices;

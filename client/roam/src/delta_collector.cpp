@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <limits>
 
 namespace terrain::roam {
 
@@ -15,24 +16,6 @@ std::uint32_t pagesOf(std::uint32_t slots) {
     return (slots + TileMesh::kSlotsPerPage - 1) / TileMesh::kSlotsPerPage;
 }
 
-/// Sorts and joins `ranges` in place (touching ranges join), clamped to [0, count).
-void normalise(std::vector<VertexRange>& ranges, std::uint32_t count) {
-    std::sort(ranges.begin(), ranges.end(), [](const VertexRange& a, const VertexRange& b) {
-        return a.begin < b.begin;
-    });
-    std::size_t kept = 0;
-    for (VertexRange r : ranges) {
-        r.end = std::min(r.end, count);
-        if (r.begin >= r.end)
-            continue;
-        if (kept > 0 && r.begin <= ranges[kept - 1].end)
-            ranges[kept - 1].end = std::max(ranges[kept - 1].end, r.end);
-        else
-            ranges[kept++] = r;
-    }
-    ranges.resize(kept);
-}
-
 } // namespace
 
 void DeltaCollector::delivered() {
@@ -41,13 +24,22 @@ void DeltaCollector::delivered() {
         for (const std::uint32_t page : p.pages)
             p.page_flags[page] = 0;
         p.pages.clear();
-        p.ranges.clear();
+        for (const std::uint32_t slot : p.slots)
+            p.slot_flags[slot] = 0;
+        p.slots.clear();
         p.rewritten = false;
         p.all_vertices = false;
         tile_listed_[at(t)] = 0;
     }
     pending_tiles_.clear();
     new_tiles_ = false;
+}
+
+void DeltaCollector::markSlot(Pending& p, std::uint32_t slot) {
+    if (p.slot_flags[slot] == 0) {
+        p.slot_flags[slot] = 1;
+        p.slots.push_back(slot);
+    }
 }
 
 void DeltaCollector::takeChanges(Tessellator& tess, const WorldSpec& spec) {
@@ -68,31 +60,20 @@ void DeltaCollector::takeChanges(Tessellator& tess, const WorldSpec& spec) {
     }
     for (std::int32_t t = 0; t < tiles; ++t) {
         Pending& p = pending_[at(t)];
-        if (new_tiles_ && !p.rewritten) {
-            p.rewritten = true;
-            p.all_vertices = true;
-            list(t);
-        }
         TileMesh& mesh = tess.tileMesh(t);
         const bool all_vertices = tess.tileVerticesAllChanged(t);
         const auto ranges = tess.tileVertexChanges(t);
-        if (!mesh.dirty() && !all_vertices && ranges.empty())
+        const bool fresh = new_tiles_ && !p.rewritten;
+        if (!fresh && !mesh.dirty() && !mesh.slotsRelaid() && !all_vertices && ranges.empty())
             continue;
         list(t);
-        // vertices a triangle came to use that the reader holds without their data: pending
-        const auto count = static_cast<std::uint32_t>(tess.tileVertexCount(t));
-        if (p.owed.size() != count)
-            p.owed.resize(count, 1); // never collected: owed until it is
-        if (mesh.manyNewlyReferenced()) {
-            for (std::uint32_t v = 0; v < count; ++v)
-                if (p.owed[v] != 0 && mesh.referenced(v))
-                    p.ranges.push_back({v, v + 1});
-        } else {
-            for (const std::uint32_t v : mesh.newlyReferenced())
-                if (v < count && p.owed[v] != 0)
-                    p.ranges.push_back({v, v + 1});
-        }
-        if (mesh.rewritten()) {
+        if (p.slot_flags.size() < mesh.drawnVertexCount())
+            p.slot_flags.resize(mesh.drawnVertexCount(), 0);
+        if (fresh || mesh.slotsRelaid()) {
+            // the slots were given afresh (or the tiles are new): the list and array whole
+            p.rewritten = true;
+            p.all_vertices = true;
+        } else if (mesh.rewritten()) {
             p.rewritten = true;
         } else if (!p.rewritten) {
             for (const std::uint32_t page : mesh.dirtyPages()) {
@@ -104,18 +85,18 @@ void DeltaCollector::takeChanges(Tessellator& tess, const WorldSpec& spec) {
                 }
             }
         }
-        if (all_vertices) {
+        if (all_vertices || mesh.manyTakenSlots())
             p.all_vertices = true;
-            p.ranges.clear();
-        } else if (!p.all_vertices) {
-            p.ranges.insert(p.ranges.end(), ranges.begin(), ranges.end());
-            if (p.ranges.size() > kMaxRanges) {
-                normalise(p.ranges, static_cast<std::uint32_t>(tess.tileVertexCount(t)));
-                if (p.ranges.size() > kMaxRanges) {
-                    p.all_vertices = true;
-                    p.ranges.clear();
-                }
-            }
+        if (!p.all_vertices) {
+            // slots given a vertex, and the held vertices that changed; a vertex no triangle
+            // uses is built when one comes to
+            for (const std::uint32_t slot : mesh.takenSlots())
+                markSlot(p, slot);
+            const auto count = static_cast<std::uint32_t>(tess.tileVertexCount(t));
+            for (const VertexRange& r : ranges)
+                for (std::uint32_t v = r.begin; v < std::min(r.end, count); ++v)
+                    if (const std::uint32_t slot = mesh.slotOfVertex(v); slot != VertexSlots::kNone)
+                        markSlot(p, slot);
         }
         mesh.takeChanges();
         tess.takeVertexChanges(t);
@@ -130,6 +111,8 @@ void DeltaCollector::collect(Tessellator& tess, const Terrain& terrain, MeshDelt
     out.new_tiles = new_tiles_;
     out.tile_count = tess.tileCount();
     out.spec = terrain.spec();
+    if (new_tiles_)
+        out.height_range = heightRange(terrain);
     out.visible.resize(at(out.tile_count));
     out.versions.resize(at(out.tile_count));
     for (std::int32_t t = 0; t < out.tile_count; ++t) {
@@ -151,17 +134,17 @@ void DeltaCollector::collect(Tessellator& tess, const Terrain& terrain, MeshDelt
     const std::size_t groups = runner_ != nullptr && runner_->threads() > 1 && out.tiles.size() > 1
                                    ? std::min<std::size_t>(runner_->threads(), out.tiles.size())
                                    : 1;
-    if (builders_.size() < groups)
-        builders_.resize(groups);
+    if (groups_.size() < groups)
+        groups_.resize(groups);
     // the builders keep their cells' grids from one collect to the next, but for the cells the
     // terrain changed since (normals read them: a third of a crater's hand-over was refilling
     // the grids of cells no op had touched)
-    for (TileVertexBuilder& builder : builders_) {
+    for (Group& group : groups_) {
         if (tess.allCellsChanged())
-            builder.newFrame();
+            group.builder.newFrame();
         else
             for (const CellRect& r : tess.changedCells())
-                builder.forget(r);
+                group.builder.forget(r);
     }
     tess.takeChangedCells();
     // groups of consecutive tiles holding about the same number of vertices
@@ -178,9 +161,7 @@ void DeltaCollector::collect(Tessellator& tess, const Terrain& terrain, MeshDelt
     forEachTask(runner_, groups, 2, [&](std::size_t group) {
         const std::size_t first = group == 0 ? 0 : group_ends_[group - 1];
         for (std::size_t k = first; k < group_ends_[group]; ++k)
-            fill(
-                tess, terrain, out.tiles[k], builders_[group], pending_[at(out.tiles[k].tile)],
-                out);
+            fill(tess, terrain, out.tiles[k], groups_[group], out);
     });
 }
 
@@ -190,7 +171,7 @@ void DeltaCollector::layout(const Tessellator& tess, std::int32_t t, MeshDelta& 
     MeshDelta::Tile entry;
     entry.tile = t;
     entry.slot_count = mesh.slotCount();
-    entry.vertex_count = static_cast<std::uint32_t>(tess.tileVertexCount(t));
+    entry.vertex_count = mesh.drawnVertexCount();
     entry.vertex_version = tess.tileVertexVersion(t);
     entry.indices_rewritten = p.rewritten;
     entry.vertices_reset = p.all_vertices;
@@ -209,7 +190,7 @@ void DeltaCollector::layout(const Tessellator& tess, std::int32_t t, MeshDelta& 
     }
     entry.page_count = static_cast<std::uint32_t>(out.pages.size()) - entry.first_page;
 
-    // vertex runs, their values at consecutive places in out.vertices
+    // slot runs, their values at consecutive places in out.vertices
     entry.first_run = static_cast<std::uint32_t>(out.runs.size());
     std::uint64_t at_vertex =
         out.runs.empty() ? 0 : out.runs.back().at + (out.runs.back().end - out.runs.back().begin);
@@ -217,10 +198,18 @@ void DeltaCollector::layout(const Tessellator& tess, std::int32_t t, MeshDelta& 
         if (entry.vertex_count > 0)
             out.runs.push_back({0, entry.vertex_count, at_vertex});
     } else {
-        normalise(p.ranges, entry.vertex_count);
-        for (const VertexRange& r : p.ranges) {
-            out.runs.push_back({r.begin, r.end, at_vertex});
-            at_vertex += r.end - r.begin;
+        std::sort(p.slots.begin(), p.slots.end());
+        while (!p.slots.empty() && p.slots.back() >= entry.vertex_count)
+            p.slots.pop_back(); // (none: the slots only shrink when given afresh)
+        for (std::size_t k = 0; k < p.slots.size();) {
+            std::size_t j = k + 1;
+            while (j < p.slots.size() && p.slots[j] == p.slots[j - 1] + 1)
+                ++j;
+            const std::uint32_t begin = p.slots[k];
+            const auto end = begin + static_cast<std::uint32_t>(j - k);
+            out.runs.push_back({begin, end, at_vertex});
+            at_vertex += end - begin;
+            k = j;
         }
     }
     entry.run_count = static_cast<std::uint32_t>(out.runs.size()) - entry.first_run;
@@ -231,11 +220,10 @@ void DeltaCollector::fill(
     const Tessellator& tess,
     const Terrain& terrain,
     const MeshDelta::Tile& entry,
-    TileVertexBuilder& builder,
-    Pending& pending,
+    Group& group,
     MeshDelta& out) {
     const TileMesh& mesh = tess.tileMesh(entry.tile);
-    const std::span<const std::uint32_t> indices = mesh.indices();
+    const std::span<const std::uint32_t> indices = mesh.drawnIndices();
     for (std::uint32_t k = entry.first_page; k < entry.first_page + entry.page_count; ++k) {
         const std::size_t from = std::size_t{out.pages[k]} * MeshDelta::kPageIndices;
         const std::size_t n = std::min<std::size_t>(MeshDelta::kPageIndices, indices.size() - from);
@@ -243,16 +231,53 @@ void DeltaCollector::fill(
         std::memcpy(into, indices.data() + from, n * sizeof(std::uint32_t));
         std::fill(into + n, into + MeshDelta::kPageIndices, 0u);
     }
-    // built as they are drawn (normals from `terrain`), those a triangle uses: the others
-    // stand in (TileVertexBuilder::build) and are owed until one does (takeChanges)
+    // the slots' vertices as drawn (normals from `terrain`); a free slot stands in
     for (std::uint32_t k = entry.first_run; k < entry.first_run + entry.run_count; ++k) {
         const MeshDelta::Run& run = out.runs[k];
-        builder.build(
-            tess, terrain, entry.tile, run.begin,
-            std::span<DrawVertex>(out.vertices.data() + run.at, run.end - run.begin), &mesh);
-        for (std::uint32_t v = run.begin; v < run.end; ++v)
-            pending.owed[v] = mesh.referenced(v) ? 0 : 1;
+        group.vertices.resize(run.end - run.begin);
+        for (std::uint32_t slot = run.begin; slot < run.end; ++slot)
+            group.vertices[slot - run.begin] = mesh.vertexOfSlot(slot);
+        group.builder.buildEach(
+            tess, terrain, entry.tile, group.vertices,
+            std::span<DrawVertex>(out.vertices.data() + run.at, run.end - run.begin));
     }
+}
+
+std::pair<float, float> DeltaCollector::heightRange(const Terrain& terrain) {
+    const WorldSpec& spec = terrain.spec();
+    float lo = std::numeric_limits<float>::max();
+    float hi = std::numeric_limits<float>::lowest();
+    for (std::int32_t y = 0; y < spec.height; ++y)
+        for (std::int32_t x = 0; x < spec.width; ++x) {
+            const auto z = static_cast<float>(terrain.sample(x, y) * spec.metresPerUnit());
+            lo = std::min(lo, z);
+            hi = std::max(hi, z);
+        }
+    return lo <= hi ? std::pair{lo, hi} : std::pair{0.0f, 0.0f};
+}
+
+std::uint64_t DeltaCollector::slotCount(const Tessellator& tess) {
+    std::uint64_t n = 0;
+    for (std::int32_t t = 0; t < tess.tileCount(); ++t)
+        n += tess.tileMesh(t).drawnVertexCount();
+    return n;
+}
+
+std::uint64_t DeltaCollector::tessellatorVertexCount(const Tessellator& tess) {
+    std::uint64_t n = 0;
+    for (std::int32_t t = 0; t < tess.tileCount(); ++t)
+        n += static_cast<std::uint64_t>(tess.tileVertexCount(t));
+    return n;
+}
+
+std::size_t DeltaCollector::memoryBytes() const {
+    std::size_t n = pending_.capacity() * sizeof(Pending);
+    for (const Pending& p : pending_)
+        n += (p.slots.capacity() + p.pages.capacity()) * sizeof(std::uint32_t) +
+             p.slot_flags.capacity() + p.page_flags.capacity();
+    for (const Group& g : groups_)
+        n += g.vertices.capacity() * sizeof(std::uint32_t);
+    return n;
 }
 
 } // namespace terrain::roam

@@ -16,6 +16,12 @@ void DrawnMesh::markPage(TileCopy& copy, std::uint32_t page) {
     }
 }
 
+template <typename T> void DrawnMesh::fitCapacity(std::vector<T>& v) {
+    // a tile laid out afresh with far less than it held (the view moved away): give it back
+    if (v.capacity() > 2 * v.size() + 1024)
+        v.shrink_to_fit();
+}
+
 bool DrawnMesh::wellFormed(const MeshDelta& delta) {
     if (delta.tile_count < 0 || delta.visible.size() != at(delta.tile_count) ||
         delta.versions.size() != at(delta.tile_count) ||
@@ -64,6 +70,8 @@ bool DrawnMesh::apply(const MeshDelta& delta) {
         // the list: its new length, then the pages (a page cut by the end is padded in the delta)
         const std::size_t index_count = std::size_t{e.slot_count} * 3;
         copy.indices.resize(index_count);
+        if (e.indices_rewritten)
+            fitCapacity(copy.indices);
         if (e.indices_rewritten) {
             copy.rewritten = true;
             for (const std::uint32_t page : copy.dirty_pages)
@@ -84,6 +92,8 @@ bool DrawnMesh::apply(const MeshDelta& delta) {
         }
         // the array: its new size, then the runs
         copy.vertices.resize(e.vertex_count);
+        if (e.vertices_reset)
+            fitCapacity(copy.vertices);
         if (e.vertices_reset) {
             copy.all_vertices = true;
             copy.vertex_changes.clear();
@@ -107,18 +117,8 @@ bool DrawnMesh::apply(const MeshDelta& delta) {
             copy.vertex_changes.clear();
         }
     }
-    if (delta.new_tiles) {
-        // the colours' scale: the base grids hold every sample of the world
-        float lo = std::numeric_limits<float>::max();
-        float hi = std::numeric_limits<float>::lowest();
-        for (const TileCopy& copy : tiles_)
-            for (std::size_t i = 0;
-                 i < std::min<std::size_t>(copy.vertices.size(), kTileBaseVertices); ++i) {
-                lo = std::min(lo, copy.vertices[i].z);
-                hi = std::max(hi, copy.vertices[i].z);
-            }
-        height_range_ = lo <= hi ? std::pair{lo, hi} : std::pair{0.0f, 0.0f};
-    }
+    if (delta.new_tiles)
+        height_range_ = delta.height_range;
     return true;
 }
 

@@ -6,6 +6,7 @@ void MeshDelta::clear() {
     step = 0;
     new_tiles = false;
     tile_count = 0;
+    height_range = {0.0f, 0.0f};
     visible.clear();
     versions.clear();
     tiles.clear();

@@ -32,7 +32,11 @@ std::size_t TileMesh::home(std::uint32_t key, std::size_t size) {
 
 void TileMesh::clear() {
     indices_.clear();
+    drawn_.clear();
     std::fill(uses_.begin(), uses_.end(), std::uint8_t{0});
+    slots_.clear();
+    taken_slots_.clear();
+    taken_overflow_ = false;
     keys_of_slots_.clear();
     free_slots_.clear();
     std::fill(table_.begin(), table_.end(), kEmptyEntry);
@@ -108,13 +112,16 @@ void TileMesh::eraseAt(std::size_t hole) {
 void TileMesh::appendSlot() {
     growByAQuarter(keys_of_slots_, keys_of_slots_.size() + 1);
     growByAQuarter(indices_, indices_.size() + 3);
+    growByAQuarter(drawn_, drawn_.size() + 3);
     keys_of_slots_.push_back(kNoKey);
     indices_.resize(indices_.size() + 3);
+    drawn_.resize(drawn_.size() + 3);
 }
 
-void TileMesh::write(std::uint32_t slot, const Indices& indices) {
+void TileMesh::write(std::uint32_t slot, const Indices& indices, const Indices& drawn) {
     std::copy(
         indices.begin(), indices.end(), indices_.begin() + 3 * static_cast<std::ptrdiff_t>(slot));
+    std::copy(drawn.begin(), drawn.end(), drawn_.begin() + 3 * static_cast<std::ptrdiff_t>(slot));
     counters_.index_bytes_written += kIndexBytesPerTriangle;
     if (cleared_)
         return; // the whole list goes up anyway
@@ -127,25 +134,49 @@ void TileMesh::write(std::uint32_t slot, const Indices& indices) {
     }
 }
 
-void TileMesh::use(const Indices& indices, int by) {
-    for (const std::uint32_t v : indices) {
+TileMesh::Indices TileMesh::use(const Indices& indices, int by) {
+    Indices slots{0, 0, 0};
+    for (std::size_t k = 0; k < 3; ++k) {
+        const std::uint32_t v = indices[k];
         if (v >= uses_.size()) {
             const std::size_t n =
                 std::max<std::size_t>(v + 1, uses_.size() + uses_.size() / 4 + 64);
             uses_.reserve(n); // a quarter of growth, as the lists
             uses_.resize(n, 0);
-            newly_used_.reserve(newlyLimit()); // then no push allocates
         }
-        if (uses_[v] == 0 && by > 0 && !newly_overflow_) {
-            if (newly_used_.size() >= newlyLimit()) {
-                newly_overflow_ = true; // nobody takes them: no list may grow for ever
-                newly_used_.clear();
-            } else {
-                newly_used_.push_back(v);
+        const auto after = static_cast<std::uint8_t>(uses_[v] + by);
+        if (uses_[v] == 0) {
+            slots[k] = slots_.take(v);
+            if (!taken_overflow_ && !cleared_) {
+                if (taken_slots_.size() >= takenLimit()) {
+                    taken_overflow_ = true; // nobody takes them: no list may grow for ever
+                    taken_slots_.clear();
+                } else {
+                    taken_slots_.push_back(slots[k]);
+                }
             }
+        } else if (after == 0) {
+            slots_.release(v);
+        } else if (by > 0) {
+            slots[k] = slots_.slotOf(v);
         }
-        uses_[v] = static_cast<std::uint8_t>(uses_[v] + by);
+        uses_[v] = after;
     }
+    return slots;
+}
+
+void TileMesh::relaySlots() {
+    slots_.clear();
+    for (std::uint32_t v = 0; v < uses_.size(); ++v)
+        if (uses_[v] != 0)
+            slots_.take(v);
+    for (std::size_t i = 0; i < indices_.size(); ++i) {
+        const std::uint32_t slot = slots_.slotOf(indices_[i]);
+        drawn_[i] = slot == VertexSlots::kNone ? 0u : slot;
+    }
+    relaid_ = true;
+    taken_slots_.clear();
+    taken_overflow_ = false;
 }
 
 void TileMesh::add(std::uint32_t key, const Indices& indices) {
@@ -159,8 +190,7 @@ void TileMesh::add(std::uint32_t key, const Indices& indices) {
     }
     keys_of_slots_[slot] = key;
     insertKey(key, slot);
-    write(slot, indices);
-    use(indices, 1);
+    write(slot, indices, use(indices, 1)); // (the vertices' slots: the drawn list names them)
     ++live_;
 }
 
@@ -173,7 +203,7 @@ bool TileMesh::remove(std::uint32_t key) {
     use({indices_[3 * slot], indices_[3 * slot + 1], indices_[3 * slot + 2]}, -1);
     keys_of_slots_[slot] = kNoKey;
     free_slots_.push_back(slot);
-    write(slot, {0, 0, 0});
+    write(slot, {0, 0, 0}, {0, 0, 0});
     --live_;
     return true;
 }
@@ -184,6 +214,7 @@ void TileMesh::fillHoles() {
         while (!keys_of_slots_.empty() && keys_of_slots_.back() == kNoKey) {
             keys_of_slots_.pop_back();
             indices_.resize(indices_.size() - 3);
+            drawn_.resize(drawn_.size() - 3);
         }
         const std::uint32_t hole = free_slots_.back();
         free_slots_.pop_back();
@@ -193,12 +224,17 @@ void TileMesh::fillHoles() {
         const std::uint32_t last = slotCount() - 1;
         const std::uint32_t key = keys_of_slots_[last];
         const Indices moved = {indices_[3 * last], indices_[3 * last + 1], indices_[3 * last + 2]};
+        const Indices moved_drawn = {drawn_[3 * last], drawn_[3 * last + 1], drawn_[3 * last + 2]};
         keys_of_slots_[hole] = key;
-        write(hole, moved);
+        write(hole, moved, moved_drawn);
         table_[locate(key)] = entryOf(key, hole);
         keys_of_slots_.pop_back();
         indices_.resize(indices_.size() - 3);
+        drawn_.resize(drawn_.size() - 3);
     }
+    // mostly free slots (the view moved away): a smaller array for the readers
+    if (slots_.freeCount() > 256 && slots_.freeCount() * 2 > slots_.slotCount())
+        relaySlots();
 }
 
 namespace {
@@ -218,10 +254,18 @@ void TileMesh::shrink() {
     if (listHasSlack()) {
         keys_of_slots_.shrink_to_fit();
         indices_.shrink_to_fit();
+        drawn_.shrink_to_fit();
         std::vector<std::uint32_t>(free_slots_).swap(free_slots_);
     }
     if (tableHasSlack())
         resizeTable(std::max<std::size_t>(64, std::size_t{table_used_} * 2)); // half full after
+    if (slots_.hasSlack()) {
+        // the slots given afresh, in order (a reader takes the tile whole): no free slot or
+        // page left, the rest goes back
+        relaySlots();
+        slots_.shrink();
+        std::vector<std::uint32_t>(taken_slots_).swap(taken_slots_);
+    }
 }
 
 std::uint64_t TileMesh::dirtyUploadBytes() const {
@@ -242,8 +286,9 @@ void TileMesh::takeChanges() {
     for (const std::uint32_t page : dirty_pages_)
         page_dirty_[page] = 0;
     dirty_pages_.clear();
-    newly_used_.clear();
-    newly_overflow_ = false;
+    taken_slots_.clear();
+    taken_overflow_ = false;
+    relaid_ = false;
     cleared_ = false;
 }
 

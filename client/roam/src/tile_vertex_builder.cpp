@@ -167,55 +167,52 @@ void TileVertexBuilder::build(
     const Terrain& terrain,
     std::int32_t tile,
     std::uint32_t first,
-    std::span<DrawVertex> out,
-    const TileMesh* drawn) {
+    std::span<DrawVertex> out) {
     constexpr auto kBase = static_cast<std::uint32_t>(kTileBaseVertices);
     const double per_lattice = tess.metresPerLattice();
     const double per_fine = tess.metresPerFineUnit();
-    // a stretch of the array, positions and normals
-    const auto stretch = [&](std::size_t from, std::size_t to) {
-        positions(
-            tess, tile, first + static_cast<std::uint32_t>(from), out.subspan(from, to - from));
-        for (std::size_t i = from; i < to; ++i) {
-            const auto index = static_cast<std::uint32_t>(first + i);
-            if (drawn != nullptr && !drawn->referenced(index))
-                continue; // (a base vertex no triangle uses: its height, not its normal)
-            const TileVertex& key = keys_[i - from];
-            out[i].normal = index < kBase
-                                ? baseNormal(terrain, key.position)
-                                : blockNormal(terrain, key.position, per_lattice, per_fine);
-        }
-    };
-    if (drawn == nullptr) {
-        stretch(0, out.size());
-        return;
-    }
-    // a vertex no triangle uses is not the surface's: it stands in as the tile's first vertex
-    // (a point of the tile, as a hole does), facing up; a base vertex keeps its own height (a
-    // reader scales its colours by the base grid). Either is built when a triangle uses it.
-    const std::uint32_t up = packNormal(0.0, 0.0, 1.0);
-    DrawVertex stand_in{};
-    bool have_stand_in = false;
-    std::size_t i = 0;
-    while (i < out.size()) {
+    positions(tess, tile, first, out);
+    for (std::size_t i = 0; i < out.size(); ++i) {
         const auto index = static_cast<std::uint32_t>(first + i);
-        if (!drawn->referenced(index)) {
-            if (index < kBase) {
-                positions(tess, tile, index, out.subspan(i, 1));
-            } else {
-                if (!have_stand_in) {
-                    positions(tess, tile, 0, std::span<DrawVertex>(&stand_in, 1));
-                    have_stand_in = true;
-                }
-                out[i] = stand_in;
-            }
-            out[i++].normal = up;
+        const TileVertex& key = keys_[i];
+        out[i].normal = index < kBase ? baseNormal(terrain, key.position)
+                                      : blockNormal(terrain, key.position, per_lattice, per_fine);
+    }
+}
+
+void TileVertexBuilder::buildEach(
+    const Tessellator& tess,
+    const Terrain& terrain,
+    std::int32_t tile,
+    std::span<const std::uint32_t> indices,
+    std::span<DrawVertex> out) {
+    std::size_t i = 0;
+    while (i < indices.size()) {
+        if (indices[i] == kNoVertex) {
+            // nothing draws it: a point of the tile (an engine's bounds stay the tile's), facing up
+            positions(tess, tile, 0, out.subspan(i, 1));
+            out[i++].normal = packNormal(0.0, 0.0, 1.0);
             continue;
         }
+        // a run of consecutive indices at once (the array's segments found once a run)
         std::size_t j = i + 1;
-        while (j < out.size() && drawn->referenced(static_cast<std::uint32_t>(first + j)))
+        while (j < indices.size() && indices[j] == indices[j - 1] + 1)
             ++j;
-        stretch(i, j);
+        if (j - i == 1) {
+            // one vertex (most are: a slot is given to whichever vertex comes next)
+            const TileVertex key = tess.tileVertex(tile, indices[i]);
+            out[i] = DrawVertex{
+                static_cast<float>(key.position.x), static_cast<float>(key.position.y),
+                static_cast<float>(static_cast<double>(key.height) * tess.metresPerFineUnit()),
+                indices[i] < static_cast<std::uint32_t>(kTileBaseVertices)
+                    ? baseNormal(terrain, key.position)
+                    : blockNormal(
+                          terrain, key.position, tess.metresPerLattice(),
+                          tess.metresPerFineUnit())};
+            ++i;
+            continue;
+        }
+        build(tess, terrain, tile, indices[i], out.subspan(i, j - i));
         i = j;
     }
 }

@@ -156,9 +156,9 @@ using Vertex = terrain_vertex;
 using VertexRun = terrain_vertex_run;
 
 /// One tile's buffers as the game draws them, and what changed since markUploaded(tile). The
-/// pointers stay valid until the next tessellate() or close(). A vertex no index refers to
-/// stands in as the tile's first vertex, facing up (only what triangles use is built): it is
-/// written, and in a run, once a triangle uses it.
+/// pointers stay valid until the next tessellate() or close(). The vertices are those the
+/// tile's triangles use, each at a slot of its own while used; a slot no index refers to (free
+/// for the next vertex) holds an old vertex or a point of the tile: draw by index.
 struct TileBuffers {
     bool visible = false; ///< in the camera's view (draw only these)
     const Vertex* vertices = nullptr;

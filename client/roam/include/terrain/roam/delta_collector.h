@@ -8,10 +8,15 @@
 // deltas, each newer than the last it applied, holds the tessellator's tiles as they were at the
 // step of the last.
 //
-// Owns: the pending coverage per tile (index pages, vertex ranges, whether the list or array
-// was rebuilt) and vertex builders (one per group of tiles written at once). Takes the
-// tessellator's changes (so it is the tessellator's only reader: no renderer syncs from that
-// tessellator). Pure, single-threaded: the thread that updates the tessellator calls it.
+// The reader's vertex arrays hold only the vertices a triangle uses, at the slots TileMesh gives
+// them (its drawn list): the tessellator's array keeps a place for every vertex it could draw
+// (the 65 x 65 base grid, every point of every resident detail grain), about eight for each one
+// drawn. So the reader's copy, the GPU's buffers and the deltas are sized to what is drawn.
+//
+// Owns: per tile the pending coverage (index pages, slots, whether the list or array is
+// whole) and vertex builders (one per group of tiles written at once). Takes the tessellator's
+// changes (so it is the tessellator's only reader: no renderer syncs from that tessellator).
+// Pure, single-threaded: the thread that updates the tessellator calls it.
 
 #include <terrain/roam/mesh_delta.h>
 #include <terrain/roam/tessellator.h>
@@ -20,15 +25,13 @@
 #include <terrain/terrain.h>
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace terrain::roam {
 
 class DeltaCollector {
   public:
-    /// Past this many ranges a tile's pending vertices are "all of them".
-    static constexpr std::size_t kMaxRanges = TileVertexArrays::kMaxRanges;
-
     /// The reader took the last delta written: what it covered is no longer pending. Call before
     /// the next collect().
     void delivered();
@@ -43,19 +46,30 @@ class DeltaCollector {
     /// places the serial layout gave them.
     void setTaskRunner(TaskRunner* runner) { runner_ = runner; }
 
+    /// Slots in the readers' arrays, and places in the tessellator's arrays (what the slots
+    /// save: a reader holds the first count of vertices instead of the second).
+    static std::uint64_t slotCount(const Tessellator& tess);
+    static std::uint64_t tessellatorVertexCount(const Tessellator& tess);
+    std::size_t memoryBytes() const;
+    /// Lowest and highest ground of the world (metres, its samples): the colours' scale a
+    /// delta that starts the tiles over carries.
+    static std::pair<float, float> heightRange(const Terrain& terrain);
+
   private:
     struct Pending {
-        /// Per vertex of the tile's array: the reader holds a stand-in for it (no triangle used
-        /// it when it was last collected); a triangle that comes to use it sends it again.
-        std::vector<std::uint8_t> owed;
+        std::vector<std::uint8_t> slot_flags; ///< per slot: in `slots` (its value is pending)
+        std::vector<std::uint32_t> slots;
         std::vector<std::uint32_t> pages;
         std::vector<std::uint8_t> page_flags; ///< per page: in `pages`
-        std::vector<VertexRange> ranges;
         bool rewritten = false;
         bool all_vertices = false;
-        bool any() const { return rewritten || all_vertices || !pages.empty() || !ranges.empty(); }
+    };
+    struct Group {
+        TileVertexBuilder builder;
+        std::vector<std::uint32_t> vertices; ///< a run's vertices, slot by slot
     };
 
+    static void markSlot(Pending& p, std::uint32_t slot);
     void takeChanges(Tessellator& tess, const WorldSpec& spec);
     /// The tile's entry, pages and runs (where their contents go), appended to `out`.
     void layout(const Tessellator& tess, std::int32_t t, MeshDelta& out);
@@ -64,8 +78,7 @@ class DeltaCollector {
         const Tessellator& tess,
         const Terrain& terrain,
         const MeshDelta::Tile& entry,
-        TileVertexBuilder& builder,
-        Pending& pending,
+        Group& group,
         MeshDelta& out);
 
     std::vector<Pending> pending_;
@@ -75,7 +88,7 @@ class DeltaCollector {
     WorldSpec spec_{};
     std::uint64_t step_ = 0;
     TaskRunner* runner_ = nullptr;
-    std::vector<TileVertexBuilder> builders_; ///< one per group of tiles
+    std::vector<Group> groups_; ///< one per group of tiles
     std::vector<std::size_t> group_ends_;
 };
 

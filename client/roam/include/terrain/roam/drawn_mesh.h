@@ -103,6 +103,7 @@ class DrawnMesh {
     /// Marks a page written (once).
     static void markPage(TileCopy& copy, std::uint32_t page);
     static bool wellFormed(const MeshDelta& delta);
+    template <typename T> static void fitCapacity(std::vector<T>& v);
 
     Units units_ = Units::kLattice;
     std::vector<TileCopy> tiles_;

@@ -2,10 +2,12 @@
 
 // What a tessellator's tiles changed, as a reader on another thread takes it: per tile, the index
 // pages and vertex runs written since the reader last took a delta, with their contents (vertices
-// ready to draw, normals included), and every tile's visibility. Written on the tessellator's
-// thread (DeltaCollector), applied on the frame thread (DrawnMesh). Plain data: its vectors keep
-// their capacity when cleared, so a delta reused step after step allocates nothing in a steady
-// state.
+// ready to draw, normals included), and every tile's visibility. A tile's vertex array here is
+// the reader's: only the vertices a triangle uses, at slots the collector gives them (the index
+// pages are in slots), not the tessellator's array with a place for every vertex it could draw.
+// Written on the tessellator's thread (DeltaCollector), applied on the frame thread (DrawnMesh).
+// Plain data: its vectors keep their capacity when cleared, so a delta reused step after step
+// allocates nothing in a steady state.
 
 #include <terrain/roam/tile_mesh.h>
 #include <terrain/roam/tile_vertex_builder.h>
@@ -13,6 +15,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace terrain::roam {
@@ -47,7 +50,9 @@ struct MeshDelta {
     /// A new set of tiles (a new world, or the first delta): the reader starts every tile over.
     bool new_tiles = false;
     std::int32_t tile_count = 0;
-    WorldSpec spec{};                  ///< the world the tiles are of
+    WorldSpec spec{}; ///< the world the tiles are of
+    /// With new_tiles: the world's lowest and highest ground (metres), the colours' scale.
+    std::pair<float, float> height_range{0.0f, 0.0f};
     std::vector<std::uint8_t> visible; ///< per tile, 0 or 1
     /// Per tile, Tessellator::tileVertexVersion: it also moves with nothing to copy (a grain
     /// gone, a block evicted).

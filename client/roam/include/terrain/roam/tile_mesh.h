@@ -11,9 +11,12 @@
 // last took the tile are listed, so an index buffer is uploaded only where it changed
 // (glBufferSubData per run of dirty pages).
 // Allocation happens only when the list or its key table outgrows its capacity; a steady state
-// allocates nothing. Memory is a few bytes above the 12 the indices need per triangle: lists grow
-// by a quarter, not double, and the key table (one 8-byte entry per triangle, any size, not a
-// power of two) is kept between half and three quarters full. Pure: no GL.
+// allocates nothing. Memory is a few bytes above the 24 the indices need per triangle (the
+// list, and the same list in slots: drawnIndices()): lists grow by a quarter, not double, and
+// the key table (one 8-byte entry per triangle, any size, not a power of two) is kept between
+// half and three quarters full. Pure: no GL.
+
+#include <terrain/roam/vertex_slots.h>
 
 #include <array>
 #include <cstdint>
@@ -46,8 +49,9 @@ class TileMesh {
     /// Moves the last triangles into the free slots and shortens the list (end of a frame).
     void fillHoles();
     /// Whether shrink() would give memory back: the list uses two thirds of its capacity or
-    /// less, or the key table is under a quarter full (beyond a few hundred slots).
-    bool hasSlack() const { return listHasSlack() || tableHasSlack(); }
+    /// less, the key table is under a quarter full (beyond a few hundred slots), or the slots
+    /// hold twice what they use.
+    bool hasSlack() const { return listHasSlack() || tableHasSlack() || slots_.hasSlack(); }
     /// Gives that memory back. Allocates: the tessellator calls it for a list that has had
     /// slack for a while (one that merely breathes is not shrunk and regrown).
     void shrink();
@@ -60,10 +64,25 @@ class TileMesh {
     /// tile's array is not (the base grid a coarse tile skips, the grains' points a block's
     /// triangles do not reach), and nothing needs what no triangle draws.
     bool referenced(std::uint32_t index) const { return index < uses_.size() && uses_[index] != 0; }
-    /// Vertices a triangle came to use since takeChanges() (no triangle did before); when more
-    /// came than it keeps (nobody took the changes for long), every vertex may have.
-    std::span<const std::uint32_t> newlyReferenced() const { return newly_used_; }
-    bool manyNewlyReferenced() const { return newly_overflow_; }
+
+    // The list as a reader holds it (delta_collector.h): the same triangles, their indices into
+    // an array of the vertices the list uses only, each at a slot it keeps while used
+    // (VertexSlots). A reader's copy and the GPU's buffers are then sized to what is drawn, not
+    // to every vertex the tessellator could draw (about eight for each one drawn).
+    /// Three slot indices per list slot (the same triangles as indices()).
+    std::span<const std::uint32_t> drawnIndices() const { return drawn_; }
+    /// Slots of the reader's array (held and free).
+    std::uint32_t drawnVertexCount() const { return slots_.slotCount(); }
+    /// The vertex (of the tile's array) a slot holds, or VertexSlots::kNone.
+    std::uint32_t vertexOfSlot(std::uint32_t slot) const { return slots_.vertexOf(slot); }
+    std::uint32_t slotOfVertex(std::uint32_t vertex) const { return slots_.slotOf(vertex); }
+    /// Slots given a vertex since takeChanges() (a slot may be listed more than once); when
+    /// more than it keeps (nobody took the changes for long), any slot may have been.
+    std::span<const std::uint32_t> takenSlots() const { return taken_slots_; }
+    bool manyTakenSlots() const { return taken_overflow_; }
+    /// Since takeChanges(), every used vertex was given a slot afresh (more than half the
+    /// slots were free: the array shrinks) or the list was cleared: a reader takes them all.
+    bool slotsRelaid() const { return relaid_ || cleared_; }
 
     /// True once anything was written since takeChanges().
     bool dirty() const { return !dirty_pages_.empty() || cleared_; }
@@ -82,7 +101,8 @@ class TileMesh {
                dirty_pages_.capacity() * sizeof(std::uint32_t) + page_dirty_.capacity() +
                keys_of_slots_.capacity() * sizeof(std::uint32_t) +
                free_slots_.capacity() * sizeof(std::uint32_t) + uses_.capacity() +
-               newly_used_.capacity() * sizeof(std::uint32_t) +
+               drawn_.capacity() * sizeof(std::uint32_t) + slots_.memoryBytes() +
+               taken_slots_.capacity() * sizeof(std::uint32_t) +
                table_.capacity() * sizeof(std::uint64_t);
     }
 
@@ -113,16 +133,25 @@ class TileMesh {
     void eraseAt(std::size_t at);
     void resizeTable(std::size_t size);
     void appendSlot();
-    void write(std::uint32_t slot, const Indices& indices);
+    /// Writes the list slot's indices and their slots.
+    void write(std::uint32_t slot, const Indices& indices, const Indices& drawn);
 
-    void use(const Indices& indices, int by);
-    /// Newly referenced vertices kept before "every vertex may have" (manyNewlyReferenced).
-    std::size_t newlyLimit() const { return uses_.size() / 8 + 256; }
+    /// Counts the triangle on (by 1) or off (by -1) its vertices; a vertex coming into use takes
+    /// a slot, one going out of use gives its slot back. Counting on: returns the slots.
+    Indices use(const Indices& indices, int by);
+    /// Slots taken kept before "any slot may have been" (manyTakenSlots).
+    std::size_t takenLimit() const { return slots_.slotCount() / 4 + 256; }
+    /// Every used vertex a slot afresh, in the order of the tile's array, and the drawn list
+    /// written again (more than half the slots free).
+    void relaySlots();
     std::vector<std::uint32_t> indices_;
     /// Per vertex of the tile's array: the triangles that use it (at most 8 in a 4-8 mesh).
     std::vector<std::uint8_t> uses_;
-    std::vector<std::uint32_t> newly_used_;
-    bool newly_overflow_ = false;
+    std::vector<std::uint32_t> drawn_; ///< per list slot, three slots of the reader's array
+    VertexSlots slots_;
+    std::vector<std::uint32_t> taken_slots_;
+    bool taken_overflow_ = false;
+    bool relaid_ = false;
     std::vector<std::uint32_t> keys_of_slots_; ///< kNoKey for a free slot
     std::vector<std::uint32_t> free_slots_;
     // open addressing, linear probing, backward-shift deletion; at most 3/4 full

@@ -2,7 +2,7 @@
 
 // The CPU side of a tile's vertex buffer: DrawVertex values for vertices of the tessellator's
 // array for one tile (positions in lattice units, heights in metres, normals of the surface),
-// all of them or a run. Normals are central differences one grid step either side: on the base
+// a run of them or a list. Normals are central differences one grid step either side: on the base
 // grid, of the samples a cell apart; inside detail blocks, of the lattice heights a lattice step
 // apart, read from whole cells' 17 x 17 height grids (fillCellHeights, cached for the
 // frame: a cell's grid costs about what four single surface queries do per vertex). A lattice
@@ -41,17 +41,22 @@ class TileVertexBuilder {
     /// Forgets the cached grids of `cells` only (the rest of the terrain did not change): a
     /// builder told every change keeps its grids from one build to the next.
     void forget(CellRect cells);
-    /// The vertices [first, first + out.size()) of the tile's array. With `drawn`, only those
-    /// its triangles use: most of an array is drawn by none (the base grid a coarse tile skips,
-    /// the grain points a block's triangles do not reach). The others stand in as the tile's
-    /// first vertex (a base vertex keeps its height), facing up.
+    /// The vertices [first, first + out.size()) of the tile's array.
     void build(
         const Tessellator& tess,
         const Terrain& terrain,
         std::int32_t tile,
         std::uint32_t first,
-        std::span<DrawVertex> out,
-        const TileMesh* drawn = nullptr);
+        std::span<DrawVertex> out);
+    /// Vertex indices[i] of the tile's array into out[i]; kNoVertex: a point of the tile facing
+    /// up, standing in for a vertex nothing draws. Consecutive indices are built as runs.
+    static constexpr std::uint32_t kNoVertex = 0xffffffffu;
+    void buildEach(
+        const Tessellator& tess,
+        const Terrain& terrain,
+        std::int32_t tile,
+        std::span<const std::uint32_t> indices,
+        std::span<DrawVertex> out);
     /// Positions and heights only (normal 0): cheap, for validation.
     void positions(
         const Tessellator& tess, std::int32_t tile, std::uint32_t first, std::span<DrawVertex> out);

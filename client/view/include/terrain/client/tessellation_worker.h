@@ -87,8 +87,14 @@ struct WorkerStep {
     bool heights_only = false;
     /// The step handed its ops' heights over before its moves (a heights_only delta).
     bool heights_first = false;
-    /// The tessellator's memory after the step (Tessellator::memoryBytes).
+    /// The tessellator's memory after the step (Tessellator::memoryBytes), and the hand-over's
+    /// (DeltaCollector::memoryBytes: the slots of the vertices drawn).
     std::uint64_t tessellator_bytes = 0;
+    std::uint64_t collector_bytes = 0;
+    /// Vertices in the drawn tiles' arrays (the frame's copy and the GPU's: those a triangle
+    /// uses, and free slots) and places in the tessellator's arrays (every vertex it could draw).
+    std::uint64_t drawn_vertices = 0;
+    std::uint64_t tessellator_vertices = 0;
 };
 
 class TessellationWorker {
