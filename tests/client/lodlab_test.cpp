@@ -2,6 +2,8 @@
 // states from every flight (craters included), its cap binds and says so, an op reloads only the
 // chunks it touches, and every method runs every flight on the same world.
 
+#include "support/terrain_builders.h"
+
 #include <terrain/battle.h>
 #include <terrain/lodlab/chunked_lod.h>
 #include <terrain/lodlab/flights.h>
@@ -13,6 +15,8 @@
 
 namespace terrain::lodlab {
 namespace {
+
+using terrain::testing::applyRequest;
 
 /// A procedural map of width x height vertices with `shots` battle craters at its centre
 /// (patches among them). 300 x 200 cells: the coarser chunks reach beyond the map.
@@ -125,11 +129,8 @@ TEST(ChunkedLod, AnOpReloadsOnlyTheLoadedChunksItTouches) {
     crater.y = z.y;
     crater.radius = 3.0;
     crater.height = 1.5;
-    auto op = quantizeOp(crater, t.spec());
-    ASSERT_TRUE(op.ok());
-    auto effect = t.apply(*op);
-    ASSERT_TRUE(effect.ok());
-    const std::vector<CellRect> cells = {effect->cells};
+    const std::vector<CellRect> cells = {applyRequest(t, crater)};
+    ASSERT_FALSE(cells[0].empty());
     lod.terrainChanged(cells, false);
     const ChunkedFrame after = lod.update(frames[0].camera);
     EXPECT_GT(after.upload_bytes, 0);

@@ -841,13 +841,7 @@ TEST(RoamMesh, ABurstOfCratersIsSpreadOverFramesAndConverges) {
     s.seed = 60;
     s.count = 12;
     std::vector<CellRect> changed;
-    for (const OpRequest& r : randomCraters(t.spec(), s)) {
-        auto op = quantizeOp(r, t.spec());
-        ASSERT_TRUE(op.ok());
-        auto effect = t.apply(*op);
-        ASSERT_TRUE(effect.ok());
-        changed.push_back(effect->cells);
-    }
+    applyAll(t, randomCraters(t.spec(), s), &changed);
     tess.terrainChanged(changed, false);
     const auto first = tess.update(c);
     EXPECT_LE(first.stale_blocks_bounded, o.stale_block_budget);
@@ -1333,13 +1327,7 @@ TEST(RoamMesh, ShortStepsEndAtTheirDeadlineAndSettleOnTheMeshOneWholeUpdateMakes
     s.seed = 61;
     s.count = 10;
     std::vector<CellRect> changed;
-    for (const OpRequest& r : randomCraters(t.spec(), s)) {
-        auto op = quantizeOp(r, t.spec());
-        ASSERT_TRUE(op.ok());
-        auto effect = t.apply(*op);
-        ASSERT_TRUE(effect.ok());
-        changed.push_back(effect->cells);
-    }
+    applyAll(t, randomCraters(t.spec(), s), &changed);
     tess.terrainChanged(changed, false);
     EXPECT_TRUE(verticesMatchAFreshBuild(tess, t)) << "a vertex height waited for a step";
     EXPECT_GT(stepUntilDone(tess, deadline, c, t.spec()), 1);
@@ -1364,11 +1352,8 @@ TEST(RoamMesh, ACratersCellsAreSettledOnceTheirBoundsAndSplitsAreDone) {
     r.radius = 8.0;
     r.height = 3.0;
     r.strength = 0.5;
-    auto op = quantizeOp(r, t.spec());
-    ASSERT_TRUE(op.ok());
-    auto effect = t.apply(*op);
-    ASSERT_TRUE(effect.ok());
-    const CellRect cells = effect->cells;
+    const CellRect cells = applyRequest(t, r);
+    ASSERT_FALSE(cells.empty());
     EXPECT_TRUE(tess.settled(cells)) << "nothing was told yet";
     tess.terrainChanged(std::span<const CellRect>(&cells, 1), false);
     EXPECT_FALSE(tess.settled(cells)) << "its blocks' bounds are stale";

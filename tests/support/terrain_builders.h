@@ -73,12 +73,24 @@ inline OpRequest randomRequest(std::mt19937_64& rng, const WorldSpec& spec) {
     return r;
 }
 
-inline void applyAll(Terrain& t, const std::vector<OpRequest>& ops) {
+/// Quantizes and applies one op; the cells it changed (empty if it failed: the test fails).
+inline CellRect applyRequest(Terrain& t, const OpRequest& r) {
+    auto op = quantizeOp(r, t.spec());
+    EXPECT_TRUE(op.ok()) << op.error().message;
+    if (!op.ok())
+        return CellRect{0, 0, -1, -1};
+    auto effect = t.apply(*op);
+    EXPECT_TRUE(effect.ok()) << effect.error().message;
+    return effect.ok() ? effect->cells : CellRect{0, 0, -1, -1};
+}
+
+/// Applies the ops in order; with `changed`, appends the cells each changed.
+inline void
+applyAll(Terrain& t, const std::vector<OpRequest>& ops, std::vector<CellRect>* changed = nullptr) {
     for (const OpRequest& r : ops) {
-        auto op = quantizeOp(r, t.spec());
-        ASSERT_TRUE(op.ok()) << op.error().message;
-        auto effect = t.apply(*op);
-        ASSERT_TRUE(effect.ok()) << effect.error().message;
+        const CellRect cells = applyRequest(t, r);
+        if (changed != nullptr)
+            changed->push_back(cells);
     }
 }
 

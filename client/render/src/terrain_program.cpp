@@ -2,6 +2,7 @@
 #include "terrain_shaders.h"
 
 #include <terrain/render/terrain_program.h>
+#include <terrain/roam/delta_collector.h>
 #include <terrain/roam/drawn_mesh.h>
 
 #include <glm/geometric.hpp>
@@ -11,7 +12,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 
 namespace terrain::render {
 
@@ -103,16 +103,7 @@ void TerrainProgram::endFrame(const GlApi& gl) const {
 }
 
 std::pair<float, float> TerrainProgram::heightRange(const Terrain& terrain) {
-    const WorldSpec& spec = terrain.spec();
-    float lo = std::numeric_limits<float>::max();
-    float hi = std::numeric_limits<float>::lowest();
-    for (std::int32_t y = 0; y < spec.height; ++y)
-        for (std::int32_t x = 0; x < spec.width; ++x) {
-            const auto z = static_cast<float>(terrain.sample(x, y) * spec.metresPerUnit());
-            lo = std::min(lo, z);
-            hi = std::max(hi, z);
-        }
-    return {lo, hi};
+    return roam::DeltaCollector::heightRange(terrain); // the same scale as a worker's tiles
 }
 
 void TerrainProgram::setLineColour(const GlApi& gl, float r, float g, float b, float a) const {
