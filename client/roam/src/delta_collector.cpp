@@ -1,3 +1,4 @@
+#include <terrain/assert.h>
 #include <terrain/roam/delta_collector.h>
 
 #include <algorithm>
@@ -199,8 +200,8 @@ void DeltaCollector::layout(const Tessellator& tess, std::int32_t t, MeshDelta& 
             out.runs.push_back({0, entry.vertex_count, at_vertex});
     } else {
         std::sort(p.slots.begin(), p.slots.end());
-        while (!p.slots.empty() && p.slots.back() >= entry.vertex_count)
-            p.slots.pop_back(); // (none: the slots only shrink when given afresh)
+        // (the slots shrink only when given afresh, and then every slot is pending)
+        TERRAIN_ASSERT(p.slots.empty() || p.slots.back() < entry.vertex_count);
         for (std::size_t k = 0; k < p.slots.size();) {
             std::size_t j = k + 1;
             while (j < p.slots.size() && p.slots[j] == p.slots[j - 1] + 1)

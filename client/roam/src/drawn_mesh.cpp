@@ -70,9 +70,8 @@ bool DrawnMesh::apply(const MeshDelta& delta) {
         // the list: its new length, then the pages (a page cut by the end is padded in the delta)
         const std::size_t index_count = std::size_t{e.slot_count} * 3;
         copy.indices.resize(index_count);
-        if (e.indices_rewritten)
-            fitCapacity(copy.indices);
         if (e.indices_rewritten) {
+            fitCapacity(copy.indices);
             copy.rewritten = true;
             for (const std::uint32_t page : copy.dirty_pages)
                 copy.page_flags[page] = 0;
@@ -92,9 +91,8 @@ bool DrawnMesh::apply(const MeshDelta& delta) {
         }
         // the array: its new size, then the runs
         copy.vertices.resize(e.vertex_count);
-        if (e.vertices_reset)
-            fitCapacity(copy.vertices);
         if (e.vertices_reset) {
+            fitCapacity(copy.vertices);
             copy.all_vertices = true;
             copy.vertex_changes.clear();
         }

@@ -378,36 +378,28 @@ void SplitMerge::chunksCut(
     int g, std::size_t end, std::span<const std::pair<std::int32_t, std::int32_t>> moved) {
     // renamed if the chunk moved; dropped if it was free (a released grain's watched ids lost
     // their state)
-    const auto rename = [&](std::vector<DiamondId>& ids) {
-        std::erase_if(ids, [&](DiamondId& id) {
-            if (id < kPooledIds || DiamondSpace::grainOfId(id) != g)
+    // whether the id goes (renamed in place when it stays)
+    const auto drop = [&](DiamondId& id) {
+        if (id < kPooledIds || DiamondSpace::grainOfId(id) != g)
+            return false;
+        const std::int32_t chunk = DiamondSpace::chunkOfId(id, g);
+        if (static_cast<std::size_t>(chunk) < end)
+            return false;
+        for (const auto& [from, to] : moved)
+            if (from == chunk) {
+                id = DiamondSpace::pooledId(g, to, DiamondSpace::slotOfId(id, g));
                 return false;
-            const std::int32_t chunk = DiamondSpace::chunkOfId(id, g);
-            if (static_cast<std::size_t>(chunk) < end)
-                return false;
-            for (const auto& [from, to] : moved)
-                if (from == chunk) {
-                    id = DiamondSpace::pooledId(g, to, DiamondSpace::slotOfId(id, g));
-                    return false;
-                }
-            return true;
-        });
+            }
+        return true;
     };
+    const auto rename = [&](std::vector<DiamondId>& ids) { std::erase_if(ids, drop); };
     rename(watched_);
     rename(rekey_);
     rename(deferred_splits_);
     rename(due_); // (short steps carry candidates not yet priced over to the next)
     carried_ = 0;
     const auto rename_actions = [&](std::vector<Action>& actions, auto before) {
-        std::erase_if(actions, [&](Action& a) {
-            DiamondId id = a.id;
-            std::vector<DiamondId> one{id};
-            rename(one);
-            if (one.empty())
-                return true;
-            a.id = one.front();
-            return false;
-        });
+        std::erase_if(actions, [&](Action& a) { return drop(a.id); });
         std::make_heap(actions.begin(), actions.end(), before);
     };
     rename_actions(backlog_splits_, lowerPriority);

@@ -1,3 +1,4 @@
+#include <terrain/assert.h>
 #include <terrain/roam/tile_mesh.h>
 
 #include <algorithm>
@@ -144,8 +145,9 @@ TileMesh::Indices TileMesh::use(const Indices& indices, int by) {
             uses_.reserve(n); // a quarter of growth, as the lists
             uses_.resize(n, 0);
         }
+        TERRAIN_ASSERT(by > 0 || uses_[v] > 0);
         const auto after = static_cast<std::uint8_t>(uses_[v] + by);
-        if (uses_[v] == 0) {
+        if (by > 0 && uses_[v] == 0) {
             slots[k] = slots_.take(v);
             if (!taken_overflow_ && !cleared_) {
                 if (taken_slots_.size() >= takenLimit()) {
@@ -260,9 +262,10 @@ void TileMesh::shrink() {
     if (tableHasSlack())
         resizeTable(std::max<std::size_t>(64, std::size_t{table_used_} * 2)); // half full after
     if (slots_.hasSlack()) {
-        // the slots given afresh, in order (a reader takes the tile whole): no free slot or
-        // page left, the rest goes back
-        relaySlots();
+        // free slots or pages left: the slots given afresh, in order (a reader takes the tile
+        // whole); then what they do not use goes back
+        if (slots_.freeCount() > 0 || slots_.freePages() > 0)
+            relaySlots();
         slots_.shrink();
         std::vector<std::uint32_t>(taken_slots_).swap(taken_slots_);
     }

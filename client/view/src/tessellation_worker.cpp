@@ -271,11 +271,14 @@ void TessellationWorker::run() {
         info.update_ms = msSince(start);
         info.threshold = view_->tessellator().threshold();
         info.settled_seq = settledSeq();
-        info.tessellator_bytes = view_->tessellator().memoryBytes();
-        info.collector_bytes = collector_.memoryBytes();
-        info.drawn_vertices = roam::DeltaCollector::slotCount(view_->tessellator());
-        info.tessellator_vertices =
-            roam::DeltaCollector::tessellatorVertexCount(view_->tessellator());
+        if (options_.keep_step_log) {
+            // walks every tile: for the benchmarks' log only
+            info.tessellator_bytes = view_->tessellator().memoryBytes();
+            info.collector_bytes = collector_.memoryBytes();
+            info.drawn_vertices = roam::DeltaCollector::slotCount(view_->tessellator());
+            info.tessellator_vertices =
+                roam::DeltaCollector::tessellatorVertexCount(view_->tessellator());
+        }
         if (sliced) {
             // more to do: the step ended at its deadline with work left, or left a backlog it
             // could act on (one the cap refused waits for the threshold, not another step)

@@ -10,6 +10,7 @@
 // cell border get the same normal. Pure: no GL.
 
 #include <terrain/roam/tessellator.h>
+#include <terrain/roam/vertex_slots.h>
 #include <terrain/terrain.h>
 
 #include <cstdint>
@@ -50,7 +51,7 @@ class TileVertexBuilder {
         std::span<DrawVertex> out);
     /// Vertex indices[i] of the tile's array into out[i]; kNoVertex: a point of the tile facing
     /// up, standing in for a vertex nothing draws. Consecutive indices are built as runs.
-    static constexpr std::uint32_t kNoVertex = 0xffffffffu;
+    static constexpr std::uint32_t kNoVertex = VertexSlots::kNone;
     void buildEach(
         const Tessellator& tess,
         const Terrain& terrain,

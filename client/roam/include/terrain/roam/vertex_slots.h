@@ -32,6 +32,8 @@ class VertexSlots {
     /// Slots in the reader's array (held and free).
     std::uint32_t slotCount() const { return static_cast<std::uint32_t>(vertex_of_.size()); }
     std::uint32_t freeCount() const { return static_cast<std::uint32_t>(free_.size()); }
+    /// Pages of the map that no vertex uses now (kept for the next).
+    std::uint32_t freePages() const { return static_cast<std::uint32_t>(free_pages_.size()); }
 
     /// A slot for a vertex that has none: a free one, else a new one at the end.
     std::uint32_t take(std::uint32_t vertex);

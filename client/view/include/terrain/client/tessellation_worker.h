@@ -87,8 +87,8 @@ struct WorkerStep {
     bool heights_only = false;
     /// The step handed its ops' heights over before its moves (a heights_only delta).
     bool heights_first = false;
-    /// The tessellator's memory after the step (Tessellator::memoryBytes), and the hand-over's
-    /// (DeltaCollector::memoryBytes: the slots of the vertices drawn).
+    /// With keep_step_log: the tessellator's memory after the step (Tessellator::memoryBytes),
+    /// and the hand-over's (DeltaCollector::memoryBytes).
     std::uint64_t tessellator_bytes = 0;
     std::uint64_t collector_bytes = 0;
     /// Vertices in the drawn tiles' arrays (the frame's copy and the GPU's: those a triangle
