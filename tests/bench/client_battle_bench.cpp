@@ -72,6 +72,17 @@ Json summaryJson(const bench::Summary& s) {
     return Json{{"n", s.n}, {"p50", s.p50}, {"p99", s.p99}, {"max", s.max}, {"mean", s.mean}};
 }
 
+// The tessellator's memory by part, MiB (frame_stats.h says what each holds).
+Json tessellatorParts(const roam::TessellatorMemory& m) {
+    return Json{{"grid", bench::mib(m.grid)},
+                {"records", bench::mib(m.records)},
+                {"grains", Json::array({bench::mib(m.grains[0]), bench::mib(m.grains[1]),
+                                        bench::mib(m.grains[2])})},
+                {"heap", bench::mib(m.heap)},
+                {"meshes", bench::mib(m.meshes)},
+                {"scratch", bench::mib(m.scratch)}};
+}
+
 // The camera of frame `f`: see the header comment.
 roam::Camera flightCamera(
     const std::string& flight,
@@ -491,6 +502,7 @@ struct AsyncTally {
     std::vector<client::WorkerStep> steps;
     double rss_mib = 0.0;        ///< after the flight (before the measures' samples are measured)
     double drawn_mesh_mib = 0.0; ///< the frame's copy of the tiles
+    MemoryUsage world;           ///< the frame's replica's terrain (each copy's share)
     int max_delay_frames = 0;
     bool hashes_agree = true;
 };
@@ -583,6 +595,7 @@ AsyncTally flyAsync(
         t.hashes_agree = false;
     t.steps = worker.stepLog();
     t.drawn_mesh_mib = bench::mib(mesh.memoryBytes());
+    t.world = replica.terrain().memoryUsage();
     t.rss_mib = bench::mib(bench::residentBytes());
     return t;
 }
@@ -594,6 +607,8 @@ Json asyncReportOf(
     const AsyncTally& t,
     const MeasuredError& measured,
     unsigned worker_threads) {
+    const roam::TessellatorMemory tess_memory =
+        t.steps.empty() ? roam::TessellatorMemory{} : t.steps.back().tessellator_memory;
     std::vector<double> step_ms, step_update, step_apply, step_collect, crater_steps, delta_kib;
     std::vector<double> per_op_ms;
     // the cost model, over the steps that applied ops (craters), no rebuild: each part's time
@@ -745,7 +760,13 @@ Json asyncReportOf(
          Json{
              {"rss_after_flight", t.rss_mib},
              {"drawn_mesh", t.drawn_mesh_mib},
-             {"tessellator", t.steps.empty() ? 0.0 : bench::mib(t.steps.back().tessellator_bytes)},
+             {"world",
+              Json{{"samples", bench::mib(t.world.sample_bytes)},
+                   {"original", bench::mib(t.world.original_bytes)},
+                   {"patches", bench::mib(t.world.patch_bytes)},
+                   {"tiles", bench::mib(t.world.tile_bytes)}}},
+             {"tessellator", bench::mib(tess_memory.total())},
+             {"tessellator_parts", tessellatorParts(tess_memory)},
              {"hand_over", t.steps.empty() ? 0.0 : bench::mib(t.steps.back().collector_bytes)},
              {"drawn_vertices", t.steps.empty() ? 0 : t.steps.back().drawn_vertices},
              {"tessellator_vertices", t.steps.empty() ? 0 : t.steps.back().tessellator_vertices}}},
@@ -835,7 +856,7 @@ Json asyncReportOf(
         "worker's tessellator %.1f, its hand-over %.1f); vertices drawn %llu of the "
         "tessellator's %llu\n",
         t.rss_mib, t.drawn_mesh_mib,
-        t.steps.empty() ? 0.0 : bench::mib(t.steps.back().tessellator_bytes),
+        bench::mib(tess_memory.total()),
         t.steps.empty() ? 0.0 : bench::mib(t.steps.back().collector_bytes),
         static_cast<unsigned long long>(t.steps.empty() ? 0 : t.steps.back().drawn_vertices),
         static_cast<unsigned long long>(t.steps.empty() ? 0 : t.steps.back().tessellator_vertices));

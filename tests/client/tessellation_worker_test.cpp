@@ -147,7 +147,6 @@ TEST(TessellationWorker, InLockstepItDrawsWhatTheSynchronousPathDrawsFrameByFram
         EXPECT_EQ(worker.taken().frame, static_cast<std::uint64_t>(f + 1));
         EXPECT_EQ(worker.taken().seq, sync_replica.seq());
         EXPECT_EQ(worker.taken().world_hash, sync_replica.worldHash());
-        EXPECT_EQ(worker.taken().replay_failures, 0u);
         EXPECT_EQ(worker.taken().stats.triangles, sync.lastStats().triangles);
         upload_bound += worker.taken().stats.upload_budget_bound ? 1 : 0;
         EXPECT_EQ(worker.taken().threshold, sync.tessellator().threshold());
@@ -344,6 +343,86 @@ TEST(ReplicaChanges, ReplayedOnAnotherCopyTheyReachTheSameBitsAndTheSameDirtyCel
     recorded.recordChanges(false);
     server.shoot(40.0, 60.0, 0.3, {&recorded});
     EXPECT_TRUE(recorded.takeChanges().empty());
+}
+
+TEST(ReplicaChanges, FollowedByChangedTilesACopyReachesTheSameBitsAndDirtyCellsApplyingNothing) {
+    // as the worker follows the frame: source -> hand-over copy -> follower
+    Server server{map(5, 193, 129)};
+    Replica source;
+    server.load(source);
+    source.recordChanges(true);
+    Replica hand_over;
+    Replica follower;
+    hand_over.follow(source, {});
+    (void)hand_over.takeDirty();
+    follower.follow(hand_over, {});
+    EXPECT_TRUE(follower.takeDirty().all) << "a first follow is a whole new world";
+    source.takeDirty();
+    for (int round = 0; round < 6; ++round) {
+        server.shoot(40.0 + round * 20.0, 60.0, 0.3, {&source});
+        server.shoot(50.0 + round * 20.0, 70.0, 0.5, {&source});
+        if (round == 2) {
+            // a tile corrupted behind the hashes' back, then repaired from the server
+            source.terrainForTesting().apply(*quantizeOp(
+                OpRequest{OpKind::kCrater, 70.0, 60.0, 5, 2, 0.3}, server.world.spec()));
+            server.shoot(80.0, 60.0, 0.3, {&source});
+            const std::vector<std::uint64_t> hashes;
+            ASSERT_TRUE(
+                source.applyRepair(server.seq, server.world.worldHash(), server.tiles(), hashes)
+                    .ok());
+        }
+        if (round == 4)
+            server.load(source);
+        const std::vector<ReplicaChange> changes = source.takeChanges();
+        hand_over.follow(source, changes);
+        (void)hand_over.takeDirty();
+        // the source goes on before the follower catches up: its writes must not reach the
+        // lists the copies share
+        const std::uint64_t followed_hash = hand_over.worldHash();
+        server.shoot(60.0, 50.0, 0.4, {&source});
+        follower.follow(hand_over, changes);
+        EXPECT_EQ(follower.seq(), hand_over.seq());
+        EXPECT_EQ(follower.worldHash(), followed_hash);
+        EXPECT_EQ(follower.terrain().computeWorldHash(), followed_hash) << "round " << round;
+        EXPECT_EQ(follower.verifiedSeq(), hand_over.verifiedSeq());
+        // its dirty set is the one the source had for the same changes
+        const DirtySet b = follower.takeDirty();
+        EXPECT_EQ(b.all, round == 4);
+        const auto opsIn = [](const std::vector<ReplicaChange>& list) {
+            return static_cast<std::size_t>(
+                std::count_if(list.begin(), list.end(), [](const ReplicaChange& c) {
+                    return c.kind == ReplicaChange::Kind::kOp;
+                }));
+        };
+        const std::size_t ops = opsIn(changes);
+        EXPECT_GT(ops, 0u);
+        if (round != 4) {
+            EXPECT_EQ(b.cells.size(), ops);
+            for (std::size_t k = 0, op = 0; k < changes.size(); ++k) {
+                if (changes[k].kind != ReplicaChange::Kind::kOp)
+                    continue;
+                const CellRect& c = changes[k].cells;
+                EXPECT_FALSE(c.empty());
+                EXPECT_TRUE(
+                    c.x0 == b.cells[op].x0 && c.y0 == b.cells[op].y0 && c.x1 == b.cells[op].x1 &&
+                    c.y1 == b.cells[op].y1);
+                ++op;
+            }
+        }
+        if (round == 2) {
+            EXPECT_FALSE(b.tiles.empty()) << "the repaired tiles";
+        }
+        // the shot after the hand-over reaches the follower at the next round
+        const std::vector<ReplicaChange> late = source.takeChanges();
+        hand_over.follow(source, late);
+        (void)hand_over.takeDirty();
+        follower.follow(hand_over, late);
+        EXPECT_EQ(follower.terrain().computeWorldHash(), source.worldHash());
+        EXPECT_EQ(follower.takeDirty().cells.size(), opsIn(late));
+        source.takeDirty();
+    }
+    EXPECT_EQ(follower.worldHash(), server.world.worldHash());
+    EXPECT_EQ(follower.stats().ops_applied, 0u) << "it applied nothing";
 }
 
 } // namespace

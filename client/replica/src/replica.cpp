@@ -51,6 +51,7 @@ Replica::applyOp(std::uint64_t seq, const DeformOp& op, std::optional<std::uint6
         change.seq = seq;
         change.op = op;
         change.world_hash = checked_hash;
+        change.cells = effect->cells;
         changes_.push_back(std::move(change));
     }
     // an op dirties its own cells: whole tiles would make every crater re-derive tiles of
@@ -208,6 +209,41 @@ Status Replica::replay(const ReplicaChange& change) {
     }
     }
     return makeError(ErrorCode::kInvariantBroken, "an unknown kind of replica change");
+}
+
+void Replica::follow(const Replica& source, std::span<const ReplicaChange> changes) {
+    if (!source.terrain_)
+        return;
+    if (terrain_) {
+        terrain_->syncFrom(*source.terrain_);
+    } else {
+        terrain_.emplace(*source.terrain_);
+        dirty_ = DirtySet{};
+        dirty_.all = true;
+    }
+    seq_ = source.seq_;
+    genesis_hash_ = source.genesis_hash_;
+    verified_seq_ = source.verified_seq_;
+    verified_hash_ = source.verified_hash_;
+    diverged_ = source.diverged_;
+    suspects_ = source.suspects_;
+    unverified_tiles_ = source.unverified_tiles_;
+    for (const ReplicaChange& change : changes) {
+        switch (change.kind) {
+        case ReplicaChange::Kind::kState:
+            dirty_ = DirtySet{};
+            dirty_.all = true;
+            break;
+        case ReplicaChange::Kind::kOp:
+            if (!change.cells.empty())
+                dirty_.cells.push_back(change.cells);
+            break;
+        case ReplicaChange::Kind::kRepair:
+            for (const TileRecord& record : change.tiles)
+                markTile(record.tile);
+            break;
+        }
+    }
 }
 
 } // namespace terrain::client

@@ -60,8 +60,10 @@ unsigned TessellationWorkerOptions::defaultThreads() {
 
 TessellationWorker::TessellationWorker(Replica& replica, const TessellationWorkerOptions& options)
     : options_(options), replica_(&replica) {
-    // the worker's world: a copy of the replica's now, then the same changes as it
-    world_.loadSnapshot(DecodedSnapshot{Terrain(replica.terrain()), replica.seq()});
+    // the worker's world: a copy of the replica's now, which follows it by changed tiles
+    in_world_.follow(replica, {});
+    (void)in_world_.takeDirty();
+    world_.follow(in_world_, {});
     view_.emplace(world_, options.view);
     const unsigned threads =
         options.threads > 0 ? options.threads : TessellationWorkerOptions::defaultThreads();
@@ -104,6 +106,8 @@ void TessellationWorker::post(const roam::Camera& camera, double frame_ms) {
     const std::uint64_t frame = ++posted_;
     {
         std::lock_guard lock(in_mutex_);
+        in_world_.follow(*replica_, changes);
+        (void)in_world_.takeDirty(); // the changes themselves go to the worker's world
         if (in_changes_.empty())
             in_changes_ = std::move(changes);
         else
@@ -150,14 +154,15 @@ bool TessellationWorker::take(roam::DrawnMesh& mesh) {
     return changed;
 }
 
-void TessellationWorker::noteReplayed(const ReplicaChange& change) {
-    if (change.kind == ReplicaChange::Kind::kState) {
-        unsettled_.clear(); // the next update rebuilds
-        return;
-    }
-    const DirtySet& dirty = world_.peekDirty();
-    if (change.kind == ReplicaChange::Kind::kOp && !dirty.cells.empty() && !dirty.all)
-        unsettled_.emplace_back(change.seq, dirty.cells.back());
+void TessellationWorker::noteFollowed(std::span<const ReplicaChange> changes) {
+    // after a state the next update rebuilds: nothing before it, or after it in the same step,
+    // waits to settle
+    const bool rebuild = world_.peekDirty().all;
+    for (const ReplicaChange& change : changes)
+        if (change.kind == ReplicaChange::Kind::kState)
+            unsettled_.clear();
+        else if (change.kind == ReplicaChange::Kind::kOp && !rebuild && !change.cells.empty())
+            unsettled_.emplace_back(change.seq, change.cells);
 }
 
 std::uint64_t TessellationWorker::settledSeq() {
@@ -192,7 +197,6 @@ void TessellationWorker::publish(WorkerStep& info) {
 
 void TessellationWorker::run() {
     std::vector<ReplicaChange> changes;
-    std::uint64_t replay_failures = 0;
     std::uint64_t seen = 0; // the last post taken in
     std::uint64_t steps = 0;
     const bool sliced = !options_.lockstep && options_.step_ms > 0.0;
@@ -203,12 +207,18 @@ void TessellationWorker::run() {
         double frame_ms = 0.0;
         std::optional<double> tau;
         std::optional<std::int64_t> max_triangles;
+        double apply_ms = 0.0; // following the frame's world
         {
             std::unique_lock lock(in_mutex_);
             in_cv_.wait(lock, [&] { return stop_ || in_frame_ != seen || more; });
             if (stop_)
                 return;
             changes.swap(in_changes_);
+            if (!changes.empty()) {
+                const auto start = std::chrono::steady_clock::now();
+                world_.follow(in_world_, changes);
+                apply_ms = msSince(start);
+            }
             camera = in_camera_;
             frame = in_frame_;
             if (frame != seen)
@@ -219,21 +229,13 @@ void TessellationWorker::run() {
         seen = frame;
         WorkerStep info;
 
-        auto start = std::chrono::steady_clock::now();
-        // the same changes in the same order as the replica: the same bits (a failure there
-        // fails here too, and the replica's owner resyncs it, which reaches us as a state)
-        for (const ReplicaChange& change : changes) {
-            // it applied on the frame's replica, so it applies here: a failure is a bug, counted
-            if (!world_.replay(change) || world_.seq() != change.seq)
-                ++replay_failures;
-            noteReplayed(change);
+        noteFollowed(changes);
+        for (const ReplicaChange& change : changes)
             info.ops += change.kind == ReplicaChange::Kind::kOp ? 1 : 0;
-        }
-        info.replay_failures = replay_failures;
         const bool changed = !changes.empty();
         changes.clear();
-        info.apply_ms = msSince(start);
-        start = std::chrono::steady_clock::now();
+        info.apply_ms = apply_ms;
+        auto start = std::chrono::steady_clock::now();
         view_->absorb();
         if (tau)
             view_->tessellator().setTau(*tau);
@@ -273,7 +275,7 @@ void TessellationWorker::run() {
         info.settled_seq = settledSeq();
         if (options_.keep_step_log) {
             // walks every tile: for the benchmarks' log only
-            info.tessellator_bytes = view_->tessellator().memoryBytes();
+            info.tessellator_memory = view_->tessellator().memory();
             info.collector_bytes = collector_.memoryBytes();
             info.drawn_vertices = roam::DeltaCollector::slotCount(view_->tessellator());
             info.tessellator_vertices =

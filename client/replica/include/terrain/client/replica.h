@@ -107,6 +107,15 @@ class Replica {
     /// Applies a change another replica recorded, as it applied it (a stale op, a gap or a
     /// repair at another seq fail as they do there). What it changed is dirty as usual.
     Status replay(const ReplicaChange& change);
+    /// Becomes equal to `source` without applying anything: copies only the tiles that changed
+    /// since the two were last equal (Terrain::syncFrom; patch lists are shared, copy-on-write,
+    /// so the follower holds no second copy of them), and `source`'s seq and checks. `changes`
+    /// are those `source` recorded since then, in order: what they changed is marked dirty as if
+    /// applied here. The cost of the tiles changed, not of the ops (a crater: microseconds where
+    /// an apply is a millisecond). A replica with no state yet takes a whole copy, all dirty.
+    /// Records nothing. Not thread safe against writers of either replica: a copy on another
+    /// thread follows under a lock both sides take.
+    void follow(const Replica& source, std::span<const ReplicaChange> changes);
     const DirtySet& peekDirty() const { return dirty_; }
 
     const ReplicaStats& stats() const { return stats_; }

@@ -1,9 +1,11 @@
 #pragma once
 
-// The tessellation off the frame thread: a worker thread keeps its own copy of the world, fed the
-// replica's changes (ReplicaChange: the same ops, repairs and states, so the same bits), and its
+// The tessellation off the frame thread: a worker thread keeps its own copy of the world and its
 // own TerrainView; for each frame's camera it tessellates and hands the tiles' changes over as a
-// MeshDelta (delta_collector.h). The frame thread never waits for it: post() hands in the
+// MeshDelta (delta_collector.h). The ops are applied once, on the frame's replica: the worker's
+// copy follows it by the tiles they changed (Replica::follow), through a hand-over copy the frame
+// thread brings up to date at post() and the worker follows at the start of a step, both under
+// the input lock (a crater: a few tiles copied; patch lists shared, copy-on-write). The frame thread never waits for it: post() hands in the
 // frame's changes and camera under a lock held for a move, take() applies the newest finished
 // delta, reached by one atomic exchange (a triple buffer: the worker writes one delta while the
 // frame thread reads another; a third holds the newest finished). A delta the frame thread never
@@ -29,6 +31,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <span>
 #include <thread>
 #include <vector>
 
@@ -60,9 +63,6 @@ struct WorkerStep {
     std::uint64_t frame = 0; ///< the post whose camera it tessellated (1 = the first)
     std::uint64_t seq = 0;   ///< the replica seq its world had reached
     std::uint64_t ops = 0;   ///< ops the step applied (their craters are in its mesh)
-    /// Changes the worker's world could not replay as the replica applied them, since the start
-    /// (0 unless something is broken: its world would differ from the frame's).
-    std::uint64_t replay_failures = 0;
     std::int64_t max_triangles = 0; ///< the cap the step ran under (the frame budget moves it)
     std::uint64_t world_hash = 0;
     /// Every op up to this seq has converged in the step's mesh: the cells it changed are
@@ -72,7 +72,8 @@ struct WorkerStep {
     std::uint64_t settled_seq = 0;
     double threshold = 0.0; ///< the tessellator's threshold after the step (pixels)
     roam::FrameStats stats;
-    /// Worker time for the step (ms): applying the changes to its world, telling the
+    /// Worker time for the step (ms): following the frame's world (copying the changed tiles),
+    /// telling the
     /// tessellator (terrainChanged: blocks and bounds marked stale), tessellating, writing the
     /// delta; and update()'s passes (UpdatePhase order: stale bounds, rebuild, split/merge,
     /// finish frame, pool upkeep).
@@ -87,9 +88,9 @@ struct WorkerStep {
     bool heights_only = false;
     /// The step handed its ops' heights over before its moves (a heights_only delta).
     bool heights_first = false;
-    /// With keep_step_log: the tessellator's memory after the step (Tessellator::memoryBytes),
-    /// and the hand-over's (DeltaCollector::memoryBytes).
-    std::uint64_t tessellator_bytes = 0;
+    /// With keep_step_log: the tessellator's memory after the step, by part
+    /// (Tessellator::memory), and the hand-over's (DeltaCollector::memoryBytes).
+    roam::TessellatorMemory tessellator_memory;
     std::uint64_t collector_bytes = 0;
     /// Vertices in the drawn tiles' arrays (the frame's copy and the GPU's: those a triangle
     /// uses, and free slots) and places in the tessellator's arrays (every vertex it could draw).
@@ -152,6 +153,9 @@ class TessellationWorker {
     // inputs: written by post() under in_mutex_, moved out by the worker
     std::mutex in_mutex_;
     std::condition_variable in_cv_;
+    /// The frame's world as of the last post, which the worker's follows (the changes since it
+    /// last did are in_changes_).
+    Replica in_world_;
     std::vector<ReplicaChange> in_changes_;
     roam::Camera in_camera_{};
     std::uint64_t in_frame_ = 0;
@@ -189,9 +193,9 @@ class TessellationWorker {
     bool published_ = false;
     /// Ops whose cells are not settled yet, in seq order, with those cells.
     std::deque<std::pair<std::uint64_t, CellRect>> unsettled_;
-    /// Follows the ops a change brings (their cells, from the world's dirty set) and what has
-    /// settled after a step; returns the step's settled_seq.
-    void noteReplayed(const ReplicaChange& change);
+    /// Follows the ops the changes bring (their cells) and what has settled after a step;
+    /// returns the step's settled_seq.
+    void noteFollowed(std::span<const ReplicaChange> changes);
     std::uint64_t settledSeq();
     /// Collects the tessellator's changes into the back slot with `info` (its collect time and
     /// bytes added) and makes it the newest finished delta.
