@@ -300,64 +300,28 @@ TEST(TessellationWorker, ACratersHeightsAreDrawnBeforeItsSplitsAndMerges) {
     EXPECT_EQ(worker.taken().settled_seq, server.seq) << "the craters converged";
 }
 
-TEST(ReplicaChanges, ReplayedOnAnotherCopyTheyReachTheSameBitsAndTheSameDirtyCells) {
-    Server server{map(5, 193, 129)};
-    Replica recorded;
-    server.load(recorded);
-    recorded.recordChanges(true);
-    Replica follower;
-    follower.loadSnapshot(DecodedSnapshot{Terrain(recorded.terrain()), recorded.seq()});
-    follower.takeDirty();
-    recorded.takeDirty();
-    for (int round = 0; round < 5; ++round) {
-        server.shoot(40.0 + round * 20.0, 60.0, 0.3, {&recorded});
-        if (round == 2) {
-            // a tile corrupted behind the hashes' back, then repaired from the server
-            recorded.terrainForTesting().apply(*quantizeOp(
-                OpRequest{OpKind::kCrater, 70.0, 60.0, 5, 2, 0.3}, server.world.spec()));
-            server.shoot(80.0, 60.0, 0.3, {&recorded});
-            const std::vector<std::uint64_t> hashes;
-            ASSERT_TRUE(
-                recorded.applyRepair(server.seq, server.world.worldHash(), server.tiles(), hashes)
-                    .ok());
-        }
-        if (round == 3)
-            server.load(recorded);
-        for (const ReplicaChange& change : recorded.takeChanges())
-            ASSERT_TRUE(follower.replay(change).ok());
-        EXPECT_EQ(follower.seq(), recorded.seq());
-        const DirtySet a = recorded.takeDirty();
-        const DirtySet b = follower.takeDirty();
-        EXPECT_EQ(a.all, b.all);
-        EXPECT_EQ(a.tiles, b.tiles);
-        ASSERT_EQ(a.cells.size(), b.cells.size());
-        for (std::size_t k = 0; k < a.cells.size(); ++k)
-            EXPECT_TRUE(
-                a.cells[k].x0 == b.cells[k].x0 && a.cells[k].y0 == b.cells[k].y0 &&
-                a.cells[k].x1 == b.cells[k].x1 && a.cells[k].y1 == b.cells[k].y1)
-                << "round " << round << ", rectangle " << k;
-        // the corruption was not recorded, but the repair brings both to the server's state
-        EXPECT_EQ(follower.worldHash(), recorded.worldHash());
-    }
-    EXPECT_EQ(follower.worldHash(), server.world.worldHash());
-    recorded.recordChanges(false);
-    server.shoot(40.0, 60.0, 0.3, {&recorded});
-    EXPECT_TRUE(recorded.takeChanges().empty());
-}
-
-TEST(ReplicaChanges, FollowedByChangedTilesACopyReachesTheSameBitsAndDirtyCellsApplyingNothing) {
-    // as the worker follows the frame: source -> hand-over copy -> follower
+TEST(ReplicaSyncs, FollowedByChangedTilesCopiesReachTheSameBitsAndDirtyCellsApplyingNothing) {
+    // as a client's copies follow: the network's replica -> the frame's -> the worker's
     Server server{map(5, 193, 129)};
     Replica source;
     server.load(source);
     source.recordChanges(true);
-    Replica hand_over;
-    Replica follower;
-    hand_over.follow(source, {});
-    (void)hand_over.takeDirty();
-    follower.follow(hand_over, {});
-    EXPECT_TRUE(follower.takeDirty().all) << "a first follow is a whole new world";
-    source.takeDirty();
+    Replica frame;
+    Replica worker;
+    frame.recordChanges(true);
+    std::vector<std::uint64_t> frame_versions;
+    std::vector<std::uint64_t> worker_versions;
+    frame.follow(source.takeSync(frame_versions, source.takeChanges()));
+    worker.follow(frame.takeSync(worker_versions, frame.takeChanges()));
+    EXPECT_TRUE(worker.takeDirty().all) << "a first follow is a whole new world";
+    EXPECT_EQ(worker.terrain().computeWorldHash(), source.worldHash());
+    const auto opsIn = [](const std::vector<ReplicaChange>& list) {
+        return static_cast<std::size_t>(
+            std::count_if(list.begin(), list.end(), [](const ReplicaChange& c) {
+                return c.kind == ReplicaChange::Kind::kOp;
+            }));
+    };
+    (void)source.takeDirty();
     for (int round = 0; round < 6; ++round) {
         server.shoot(40.0 + round * 20.0, 60.0, 0.3, {&source});
         server.shoot(50.0 + round * 20.0, 70.0, 0.5, {&source});
@@ -373,56 +337,61 @@ TEST(ReplicaChanges, FollowedByChangedTilesACopyReachesTheSameBitsAndDirtyCellsA
         }
         if (round == 4)
             server.load(source);
-        const std::vector<ReplicaChange> changes = source.takeChanges();
-        hand_over.follow(source, changes);
-        (void)hand_over.takeDirty();
-        // the source goes on before the follower catches up: its writes must not reach the
-        // lists the copies share
-        const std::uint64_t followed_hash = hand_over.worldHash();
+        const DirtySet a = source.takeDirty();
+        const ReplicaSync sync = source.takeSync(frame_versions, source.takeChanges());
+        if (round != 2 && round != 4) {
+            EXPECT_LT(sync.terrain.tileCount(), 6u) << "the tiles the shots touched, not all";
+        }
+        const std::uint64_t taken_hash = source.worldHash();
+        // the source goes on before the copies catch up: its writes must not reach the lists
+        // they share with it
         server.shoot(60.0, 50.0, 0.4, {&source});
-        follower.follow(hand_over, changes);
-        EXPECT_EQ(follower.seq(), hand_over.seq());
-        EXPECT_EQ(follower.worldHash(), followed_hash);
-        EXPECT_EQ(follower.terrain().computeWorldHash(), followed_hash) << "round " << round;
-        EXPECT_EQ(follower.verifiedSeq(), hand_over.verifiedSeq());
-        // its dirty set is the one the source had for the same changes
-        const DirtySet b = follower.takeDirty();
-        EXPECT_EQ(b.all, round == 4);
-        const auto opsIn = [](const std::vector<ReplicaChange>& list) {
-            return static_cast<std::size_t>(
-                std::count_if(list.begin(), list.end(), [](const ReplicaChange& c) {
-                    return c.kind == ReplicaChange::Kind::kOp;
-                }));
-        };
-        const std::size_t ops = opsIn(changes);
-        EXPECT_GT(ops, 0u);
+        frame.follow(sync);
+        worker.follow(frame.takeSync(worker_versions, frame.takeChanges()));
+        for (const Replica* copy : {&frame, &worker}) {
+            EXPECT_EQ(copy->seq(), sync.seq);
+            EXPECT_EQ(copy->worldHash(), taken_hash);
+            EXPECT_EQ(copy->terrain().computeWorldHash(), taken_hash) << "round " << round;
+            EXPECT_EQ(copy->verifiedSeq(), sync.seq);
+        }
+        // the worker's dirty set is the one the source had for the same changes
+        (void)frame.takeDirty();
+        const DirtySet b = worker.takeDirty();
+        EXPECT_EQ(a.all, b.all);
+        EXPECT_EQ(a.tiles, b.tiles);
+        ASSERT_EQ(a.cells.size(), b.cells.size());
+        for (std::size_t k = 0; k < a.cells.size(); ++k)
+            EXPECT_TRUE(
+                a.cells[k].x0 == b.cells[k].x0 && a.cells[k].y0 == b.cells[k].y0 &&
+                a.cells[k].x1 == b.cells[k].x1 && a.cells[k].y1 == b.cells[k].y1)
+                << "round " << round << ", rectangle " << k;
         if (round != 4) {
-            EXPECT_EQ(b.cells.size(), ops);
-            for (std::size_t k = 0, op = 0; k < changes.size(); ++k) {
-                if (changes[k].kind != ReplicaChange::Kind::kOp)
-                    continue;
-                const CellRect& c = changes[k].cells;
-                EXPECT_FALSE(c.empty());
-                EXPECT_TRUE(
-                    c.x0 == b.cells[op].x0 && c.y0 == b.cells[op].y0 && c.x1 == b.cells[op].x1 &&
-                    c.y1 == b.cells[op].y1);
-                ++op;
-            }
+            EXPECT_EQ(b.cells.size(), opsIn(sync.changes));
         }
         if (round == 2) {
             EXPECT_FALSE(b.tiles.empty()) << "the repaired tiles";
         }
-        // the shot after the hand-over reaches the follower at the next round
-        const std::vector<ReplicaChange> late = source.takeChanges();
-        hand_over.follow(source, late);
-        (void)hand_over.takeDirty();
-        follower.follow(hand_over, late);
-        EXPECT_EQ(follower.terrain().computeWorldHash(), source.worldHash());
-        EXPECT_EQ(follower.takeDirty().cells.size(), opsIn(late));
-        source.takeDirty();
+        // the shot after the sync reaches the copies with the next one
+        const ReplicaSync late = source.takeSync(frame_versions, source.takeChanges());
+        EXPECT_GT(late.terrain.tileCount(), 0u);
+        frame.follow(late);
+        worker.follow(frame.takeSync(worker_versions, frame.takeChanges()));
+        EXPECT_EQ(worker.terrain().computeWorldHash(), source.worldHash());
+        EXPECT_EQ(worker.takeDirty().cells.size(), opsIn(late.changes));
+        (void)frame.takeDirty();
+        (void)source.takeDirty();
     }
-    EXPECT_EQ(follower.worldHash(), server.world.worldHash());
-    EXPECT_EQ(follower.stats().ops_applied, 0u) << "it applied nothing";
+    EXPECT_EQ(worker.worldHash(), server.world.worldHash());
+    EXPECT_EQ(frame.stats().ops_applied + worker.stats().ops_applied, 0u) << "they applied nothing";
+    // a world of another shape reaches the copies whole
+    server.world = map(9, 129, 193);
+    server.seq = 50;
+    server.load(source);
+    frame.follow(source.takeSync(frame_versions, source.takeChanges()));
+    worker.follow(frame.takeSync(worker_versions, frame.takeChanges()));
+    EXPECT_TRUE(worker.takeDirty().all);
+    EXPECT_EQ(worker.terrain().spec().width, 129);
+    EXPECT_EQ(worker.terrain().computeWorldHash(), server.world.worldHash());
 }
 
 } // namespace

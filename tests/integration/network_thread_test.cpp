@@ -1,8 +1,7 @@
 // The game client's network thread (ClientOptions::network_thread) on its own, against a loopback
-// server: the checked changes it hands over rebuild the server's world on another copy; asked
-// for its whole state (what the frame does when its copy cannot replay a change), it hands over
-// the server's world, from which a fresh copy follows the ops after; and an exception on the
-// thread closes the client by name instead of ending the process.
+// server: the syncs it hands over bring the frame's copy to the server's world without applying
+// an op there, the tiles the ops changed and no more; before any world they bring nothing; and
+// an exception on the thread closes the client by name instead of ending the process.
 
 #include "network_thread.h"
 #include "support/net_harness.h"
@@ -28,21 +27,26 @@ client::ConnectionConfig networkConfigFor(std::uint16_t port, std::string tok) {
     return config;
 }
 
-// take()s until `done(news so far)` or 20 s; every change taken is appended to `changes`
+// take()s until `done(news so far)` or 20 s; `frame` follows every sync taken, and `synced_tiles`
+// counts the tiles they carried
 bool takeUntil(
     NetworkThread& net,
-    std::vector<client::ReplicaChange>& changes,
+    client::Replica& frame,
     NetworkNews& latest,
-    const std::function<bool(const NetworkNews&)>& done) {
+    const std::function<bool(const NetworkNews&)>& done,
+    std::size_t* synced_tiles = nullptr) {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
     while (std::chrono::steady_clock::now() < deadline) {
         NetworkNews news = net.take();
-        for (client::ReplicaChange& c : news.changes)
-            changes.push_back(std::move(c));
+        for (const client::ReplicaSync& sync : news.syncs) {
+            frame.follow(sync);
+            if (synced_tiles != nullptr)
+                *synced_tiles += sync.terrain.tileCount();
+        }
         for (client::DeformAnswer& a : news.answers)
             latest.answers.push_back(std::move(a));
         news.answers = std::move(latest.answers);
-        news.changes.clear();
+        news.syncs.clear();
         latest = std::move(news);
         if (done(latest))
             return true;
@@ -57,74 +61,61 @@ void fireCraters(NetworkThread& net, int n, int first) {
             OpRequest{OpKind::kCrater, 40.0 + 12.0 * (first + k), 60.0, 3.0, 1.0, 0.3});
 }
 
-TEST(NetworkThread, ItsWholeStateIsTheServersWorldAndAFreshCopyFollowsOnFromIt) {
+TEST(NetworkThread, ItsSyncsBringTheFramesCopyToTheServersWorldApplyingNoOpThere) {
     TestServer srv(smallMap());
     NetworkThread net(networkConfigFor(srv.port(), token(21, Role::kDeformer)));
-    std::vector<client::ReplicaChange> changes;
+    client::Replica frame;
+    frame.recordChanges(true); // as the frame's copy does for its tessellation worker
     NetworkNews latest;
-    ASSERT_TRUE(takeUntil(net, changes, latest, [](const NetworkNews& n) { return n.synced; }));
+    ASSERT_TRUE(takeUntil(net, frame, latest, [](const NetworkNews& n) { return n.synced; }));
+    ASSERT_TRUE(frame.ready());
+    EXPECT_TRUE(frame.takeDirty().all) << "the join's world, whole";
+    (void)frame.takeChanges();
     fireCraters(net, 5, 0);
-    ASSERT_TRUE(takeUntil(net, changes, latest, [](const NetworkNews& n) {
-        return n.answers.size() == 5 && n.seq == 5;
-    }));
+    std::size_t tiles = 0;
+    ASSERT_TRUE(takeUntil(
+        net, frame, latest,
+        [&](const NetworkNews& n) { return n.answers.size() == 5 && frame.seq() == 5; }, &tiles));
     for (const client::DeformAnswer& a : latest.answers)
         EXPECT_TRUE(a.accepted) << a.reason;
     EXPECT_EQ(latest.stats.hash_mismatches, 0u);
-
-    // the changes handed over rebuild the server's world on the frame's copy
-    client::Replica frame;
-    for (const client::ReplicaChange& c : changes)
-        ASSERT_TRUE(frame.replay(c).ok());
-    EXPECT_EQ(frame.seq(), 5u);
+    EXPECT_EQ(latest.seq, 5u);
     EXPECT_EQ(frame.worldHash(), srv.worldHash());
-
-    // asked for its whole state: one change, the server's world at its seq
-    changes.clear();
-    net.resendState();
-    ASSERT_TRUE(
-        takeUntil(net, changes, latest, [&](const NetworkNews&) { return !changes.empty(); }));
-    ASSERT_EQ(changes.size(), 1u);
-    ASSERT_EQ(changes[0].kind, client::ReplicaChange::Kind::kState);
-    EXPECT_EQ(changes[0].seq, 5u);
-    ASSERT_NE(changes[0].state, nullptr);
-    EXPECT_EQ(changes[0].state->worldHash(), srv.worldHash());
-
-    // a fresh copy starts from it and follows the ops after it
-    client::Replica fresh;
-    ASSERT_TRUE(fresh.replay(changes[0]).ok());
-    EXPECT_EQ(fresh.worldHash(), srv.worldHash());
-    changes.clear();
-    fireCraters(net, 3, 5);
-    ASSERT_TRUE(takeUntil(net, changes, latest, [](const NetworkNews& n) { return n.seq == 8; }));
-    for (const client::ReplicaChange& c : changes) {
+    EXPECT_EQ(frame.terrain().computeWorldHash(), srv.worldHash()) << "the bits, not the hash";
+    EXPECT_EQ(frame.stats().ops_applied, 0u) << "the network's replica applied them, once";
+    // the tiles the craters touched came, not the world: five craters on a row of the map
+    EXPECT_GT(tiles, 0u);
+    EXPECT_LT(tiles, 5u * static_cast<std::size_t>(frame.terrain().spec().tileCount()));
+    // and the frame's copy passes the ops on (to its worker) with their cells
+    const std::vector<client::ReplicaChange> passed = frame.takeChanges();
+    ASSERT_EQ(passed.size(), 5u);
+    for (const client::ReplicaChange& c : passed) {
         EXPECT_EQ(c.kind, client::ReplicaChange::Kind::kOp);
-        ASSERT_TRUE(fresh.replay(c).ok());
+        EXPECT_FALSE(c.cells.empty());
     }
-    EXPECT_EQ(fresh.seq(), 8u);
-    EXPECT_EQ(fresh.worldHash(), srv.worldHash());
+    EXPECT_EQ(frame.takeDirty().cells.size(), 5u);
     net.stop();
 }
 
-TEST(NetworkThread, BeforeAnyWorldAskingForTheWholeStateHandsOverNothing) {
+TEST(NetworkThread, BeforeAnyWorldItsSyncsBringNothing) {
     TestServer srv(smallMap());
     // a token the server refuses: the link never holds a world
     NetworkThread net(networkConfigFor(srv.port(), "not a token"));
-    net.resendState();
-    std::vector<client::ReplicaChange> changes;
+    client::Replica frame;
     NetworkNews latest;
-    ASSERT_TRUE(takeUntil(net, changes, latest, [](const NetworkNews& n) { return n.closed; }));
-    EXPECT_TRUE(changes.empty());
+    ASSERT_TRUE(takeUntil(net, frame, latest, [](const NetworkNews& n) { return n.closed; }));
+    EXPECT_FALSE(frame.ready());
     EXPECT_FALSE(latest.synced);
 }
 
 TEST(NetworkThread, AnExceptionOnTheThreadClosesTheClientByNameAndStopStillJoins) {
     TestServer srv(smallMap());
     NetworkThread net(networkConfigFor(srv.port(), token(22, Role::kDeformer)));
-    std::vector<client::ReplicaChange> changes;
+    client::Replica frame;
     NetworkNews latest;
-    ASSERT_TRUE(takeUntil(net, changes, latest, [](const NetworkNews& n) { return n.synced; }));
+    ASSERT_TRUE(takeUntil(net, frame, latest, [](const NetworkNews& n) { return n.synced; }));
     net.throwOnTheThreadForTesting("out of tiles");
-    ASSERT_TRUE(takeUntil(net, changes, latest, [](const NetworkNews& n) { return n.closed; }));
+    ASSERT_TRUE(takeUntil(net, frame, latest, [](const NetworkNews& n) { return n.closed; }));
     EXPECT_FALSE(latest.live);
     EXPECT_FALSE(latest.synced);
     EXPECT_EQ(latest.last_disconnect, "INTERNAL: network thread: out of tiles");

@@ -1,5 +1,6 @@
 // Copies of a world: patch lists shared copy-on-write, and syncFrom(), which brings a kept copy
-// up to date with the changed tiles only (the server's snapshot copies).
+// up to date with the changed tiles only (the server's snapshot copies), or takeSync() and
+// applySync(), the same in two halves (a client's copies on other threads).
 #include "support/terrain_builders.h"
 
 #include <terrain/snapshot.h>
@@ -107,6 +108,51 @@ TEST(TerrainCopy, aDecodedWorldIsNeverTakenForItsSource) {
     // same bytes, but decoding made tiles of its own: all copied, the result still equal
     EXPECT_EQ(kept.syncFrom(decoded->terrain), static_cast<std::size_t>(t.spec().tileCount()));
     expectEqualCopies(t, kept);
+}
+
+TEST(TerrainCopy, aSyncTakenOnOneSideAndAppliedOnTheOtherCopiesOnlyTheChangedTiles) {
+    Terrain t = hills();
+    std::vector<std::uint64_t> versions; // what the copy holds: nothing yet
+    Terrain::TileSync first = t.takeSync(versions);
+    ASSERT_TRUE(first.whole()) << "a copy with nothing takes the whole world";
+    Terrain copy = first.wholeTerrain();
+    EXPECT_EQ(t.takeSync(versions).tileCount(), 0u) << "nothing changed since";
+    crater(t, 20, 20); // inside tile 0 only
+    Terrain::TileSync one = t.takeSync(versions);
+    EXPECT_FALSE(one.whole());
+    EXPECT_EQ(one.tileCount(), 1u);
+    EXPECT_GT(one.bytes(), 0u);
+    // the source goes on before the copy applies the sync: it still brings the state taken
+    const Terrain taken = t;
+    crater(t, 64, 64, 5.0);   // the corner of four tiles
+    crater(t, 148, 138, 5.0); // the map's far edge (the padded last tiles)
+    copy.applySync(one);
+    expectEqualCopies(taken, copy);
+    Terrain::TileSync more = t.takeSync(versions);
+    EXPECT_GE(more.tileCount(), 4u);
+    EXPECT_LE(more.tileCount(), 6u);
+    copy.applySync(more);
+    expectEqualCopies(t, copy);
+    // two syncs applied in the order taken
+    crater(t, 30, 100);
+    Terrain::TileSync a = t.takeSync(versions);
+    crater(t, 31, 101);
+    crater(t, 120, 30);
+    Terrain::TileSync b = t.takeSync(versions);
+    copy.applySync(a);
+    copy.applySync(b);
+    expectEqualCopies(t, copy);
+    // another world of the same size shares no tile: taken whole, as is one of another size
+    Terrain unrelated = testing::makeHills(62);
+    Terrain::TileSync all = unrelated.takeSync(versions);
+    EXPECT_TRUE(all.whole());
+    copy.applySync(all);
+    expectEqualCopies(unrelated, copy);
+    Terrain small = testing::makeHills(63, 70, 70);
+    Terrain::TileSync smaller = small.takeSync(versions);
+    EXPECT_TRUE(smaller.whole());
+    copy.applySync(smaller);
+    expectEqualCopies(small, copy);
 }
 
 } // namespace

@@ -82,7 +82,8 @@ typedef struct terrain_client_options {
     double connect_timeout_seconds; /* 5: an attempt's TCP connect is abandoned after this */
     double give_up_seconds;         /* 30: no live link for this long closes the client; 0: never */
     int reconnect;                  /* 1: reconnect (resume) when a live link drops */
-    int ops_per_frame;              /* 2: ops applied per pump at least; 0: all as they arrive */
+    int ops_per_frame;              /* 2: ops applied per pump at least; 0: all as they arrive
+                                       (not with network_thread: applied there, unpaced) */
     int catch_up_frames;            /* 8: a backlog is applied within this many pumps */
     double tau_pixels;              /* 1: the tessellation's screen-space error bound */
     int64_t max_triangles;          /* 400000: the triangle cap */

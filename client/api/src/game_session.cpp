@@ -7,7 +7,6 @@
 #include "network_thread.h"
 
 #include <terrain/client/connection.h>
-#include <terrain/client/op_pacing.h>
 #include <terrain/client/replica.h>
 #include <terrain/client/tessellation_worker.h>
 #include <terrain/roam/drawn_mesh.h>
@@ -16,7 +15,6 @@
 #include <asio.hpp>
 #include <chrono>
 #include <cmath>
-#include <deque>
 #include <thread>
 #include <utility>
 
@@ -44,11 +42,9 @@ struct Session::Impl {
     client::Replica replica; // the frame's: the worker and heightAt() read it
     std::shared_ptr<client::Connection> connection;
     // network_thread mode: the connection and its replica on their own thread; the frame's
-    // replica replays their verified changes, paced
+    // replica follows theirs by the tiles each change touched (no op applied twice)
     std::unique_ptr<NetworkThread> network;
-    NetworkNews latest; // the network thread's flags as last taken (changes and answers moved out)
-    std::deque<client::ReplicaChange> inbox;
-    client::OpPacer pacer;
+    NetworkNews latest; // the network thread's flags as last taken (syncs and answers moved out)
     std::unique_ptr<client::TessellationWorker> worker;
     roam::DrawnMesh mesh{roam::DrawnMesh::Units::kMetres};
     std::vector<OpAnswer> answers;
@@ -65,7 +61,7 @@ struct Session::Impl {
     }
     bool synced() const {
         if (network)
-            return latest.synced && inbox.empty() && replica.seq() == latest.seq;
+            return latest.synced && replica.seq() == latest.seq;
         return connection && connection->synced();
     }
 
@@ -98,66 +94,29 @@ struct Session::Impl {
         noticeClosed();
     }
 
-    /// network_thread mode: what the network thread did since the last look.
+    /// network_thread mode: what the network thread did since the last look; the frame's
+    /// replica follows it (microseconds a crater: the tiles it changed, copied).
     void takeNews() {
         NetworkNews news = network->take();
-        for (client::ReplicaChange& c : news.changes) {
-            if (c.kind == client::ReplicaChange::Kind::kState) {
-                inbox.clear(); // a whole state supersedes everything before it
-                pacer.reset();
-            }
-            inbox.push_back(std::move(c));
-        }
+        for (const client::ReplicaSync& sync : news.syncs)
+            replica.follow(sync);
         for (client::DeformAnswer& a : news.answers)
             answers.push_back({a.request_id, a.accepted, a.seq, std::move(a.reason)});
         if (!news.last_disconnect.empty() && news.last_disconnect != latest.last_disconnect)
             last_error = news.last_disconnect;
-        news.changes.clear();
+        news.syncs.clear();
         news.answers.clear();
         latest = std::move(news);
         noticeClosed();
     }
 
-    /// network_thread mode: replays the changes taken, `ops` of the ops among them at most
-    /// (states and repairs in between come with them, in order).
-    void replay(std::size_t ops) {
-        while (!inbox.empty()) {
-            const bool is_op = inbox.front().kind == client::ReplicaChange::Kind::kOp;
-            if (is_op && ops == 0)
-                break;
-            if (Status replayed = replica.replay(inbox.front()); !replayed) {
-                // the network's replica applied it (a repair it then refused, or a bug): the
-                // frame's copy starts again from that replica's checked world
-                last_error = "the frame's replica could not replay a change (" +
-                             replayed.error().message + "): taking the network's whole state";
-                inbox.clear();
-                network->resendState();
-                return;
-            }
-            inbox.pop_front();
-            if (is_op)
-                --ops;
-        }
-    }
-    std::size_t opsWaiting() const {
-        std::size_t n = 0;
-        for (const client::ReplicaChange& c : inbox)
-            n += c.kind == client::ReplicaChange::Kind::kOp ? 1 : 0;
-        return n;
-    }
     void applyArrived() {
-        if (network)
-            replay(pacer.take(opsWaiting()));
-        else
+        if (!network) // the network thread's mode: followed as taken
             connection->applyArrived();
     }
     void applyAllArrived() {
-        if (network) {
-            replay(inbox.size());
-            pacer.reset();
-        } else {
+        if (!network)
             connection->applyAllArrived();
-        }
     }
 
     ClientResult validate() const {
@@ -206,7 +165,6 @@ ClientResult Session::connect() {
     config.pacing.ops_per_frame = m.options.ops_per_frame;
     config.pacing.catch_up_frames = m.options.catch_up_frames;
     if (m.options.network_thread) {
-        m.pacer = client::OpPacer(config.pacing);
         m.network = std::make_unique<NetworkThread>(std::move(config));
         return {};
     }
@@ -332,9 +290,10 @@ WorldState Session::world() const {
     w.live = !m.closed && m.live();
     w.synced = !m.closed && m.synced();
     w.closed = m.closed;
-    // the checks are the network replica's in network_thread mode (the frame's replays them)
+    // the ops and checks are the network replica's in network_thread mode (the frame's copy
+    // follows it, applying nothing)
     const client::ReplicaStats& s = m.network ? m.latest.stats : m.replica.stats();
-    w.ops_applied = m.replica.stats().ops_applied;
+    w.ops_applied = s.ops_applied;
     w.hash_mismatches = s.hash_mismatches;
     w.repairs = s.repairs;
     w.snapshots = s.snapshots;

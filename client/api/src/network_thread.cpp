@@ -23,6 +23,8 @@ struct NetworkThread::State {
     std::atomic<bool> stopping{false};
     std::thread thread;
 
+    std::vector<std::uint64_t> synced_versions; // the tiles as the frame's copy will hold them
+
     std::mutex mutex; // guards the members below
     NetworkNews news;
     std::uint32_t next_id = 0;
@@ -31,12 +33,15 @@ struct NetworkThread::State {
     void publish() {
         std::vector<client::ReplicaChange> changes = replica.takeChanges();
         replica.takeDirty(); // nothing draws this copy
+        client::ReplicaSync sync;
+        if (!changes.empty())
+            sync = replica.takeSync(synced_versions, std::move(changes));
         const bool live = connection->state() == client::Connection::State::kLive;
         if (!live)
             request_ids.clear(); // sent on a link now lost: no answer comes (as pump()'s mode)
         const std::lock_guard<std::mutex> lock(mutex);
-        for (client::ReplicaChange& c : changes)
-            news.changes.push_back(std::move(c));
+        if (!sync.empty())
+            news.syncs.push_back(std::move(sync));
         news.live = live;
         news.synced = connection->synced();
         news.closed = connection->state() == client::Connection::State::kClosed;
@@ -145,20 +150,6 @@ std::uint32_t NetworkThread::requestDeform(const OpRequest& request) {
             s.request_ids[sent] = id;
     });
     return id;
-}
-
-void NetworkThread::resendState() {
-    State& s = *state_;
-    asio::post(s.io, [&s] {
-        if (!s.replica.ready())
-            return;
-        client::ReplicaChange change;
-        change.kind = client::ReplicaChange::Kind::kState;
-        change.seq = s.replica.seq();
-        change.state = std::make_shared<const Terrain>(s.replica.terrain());
-        const std::lock_guard<std::mutex> lock(s.mutex);
-        s.news.changes.push_back(std::move(change));
-    });
 }
 
 void NetworkThread::throwOnTheThreadForTesting(std::string what) {

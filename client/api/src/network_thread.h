@@ -3,13 +3,14 @@
 // The game client's network on a thread of its own (ClientOptions::network_thread): the
 // connection, and the replica it checks every op against, live on that thread, so the link is
 // read, answered and kept alive however long the game's frames take (a loading screen, a
-// debugger stop), and a join's snapshot is decoded and every hash checked off the frame thread.
-// The frame thread takes the verified changes (ReplicaChange: states, ops, repairs) and replays
-// them on its own copy of the world at its own pace; requests are handed over without waiting.
+// debugger stop), and a join's snapshot is decoded and every op applied and its hash checked
+// off the frame thread. The frame thread's copy of the world follows the checked one by the
+// tiles each change touched (ReplicaSync: no op is applied twice); requests are handed over
+// without waiting.
 
 #include <terrain/client/client_machine.h>
 #include <terrain/client/replica.h>
-#include <terrain/client/replica_change.h>
+#include <terrain/client/replica_sync.h>
 
 #include <cstdint>
 #include <memory>
@@ -20,8 +21,10 @@ namespace terrain::game::detail {
 
 /// What the network thread has done since the frame thread last looked.
 struct NetworkNews {
-    std::vector<client::ReplicaChange> changes; ///< verified, in the order applied
-    std::vector<client::DeformAnswer> answers;  ///< ids as requestDeform() returned them
+    /// What the network's replica changed (verified), in the order taken: the frame's copy
+    /// follows each (Replica::follow).
+    std::vector<client::ReplicaSync> syncs;
+    std::vector<client::DeformAnswer> answers; ///< ids as requestDeform() returned them
     bool live = false;
     bool synced = false;         ///< the network's replica holds the server's state
     bool closed = false;         ///< the connection closed itself (a final refusal, a give up)
@@ -45,9 +48,6 @@ class NetworkThread {
     /// the answer comes through take() (refused there, NOT_CONNECTED, if the link dropped before
     /// the network thread sent it; none, as with pump(), if it drops after).
     std::uint32_t requestDeform(const OpRequest& request);
-    /// Frame thread: asks for the network replica's whole state as the next change (the frame's
-    /// copy could not replay one: it starts again from the checked world).
-    void resendState();
     /// Closes the connection for good and joins the thread.
     void stop();
     /// Tests: makes the network thread throw `what` from inside its loop, as a bug or an

@@ -23,8 +23,7 @@ void Replica::loadSnapshot(DecodedSnapshot snapshot) {
         ReplicaChange change;
         change.kind = ReplicaChange::Kind::kState;
         change.seq = seq_;
-        change.state = std::make_shared<const Terrain>(*terrain_);
-        changes_.push_back(std::move(change));
+        changes_.push_back(change);
     }
 }
 
@@ -49,10 +48,8 @@ Replica::applyOp(std::uint64_t seq, const DeformOp& op, std::optional<std::uint6
         ReplicaChange change;
         change.kind = ReplicaChange::Kind::kOp;
         change.seq = seq;
-        change.op = op;
-        change.world_hash = checked_hash;
         change.cells = effect->cells;
-        changes_.push_back(std::move(change));
+        changes_.push_back(change);
     }
     // an op dirties its own cells: whole tiles would make every crater re-derive tiles of
     // blocks and bounds on the client (tiles are for snapshots and repairs)
@@ -131,9 +128,8 @@ Result<std::vector<std::int32_t>> Replica::applyRepair(
         ReplicaChange change;
         change.kind = ReplicaChange::Kind::kRepair;
         change.seq = seq;
-        change.world_hash = world_hash;
-        change.tiles = tiles;
-        change.tile_hashes.assign(server_tile_hashes.begin(), server_tile_hashes.end());
+        for (const TileRecord& record : tiles)
+            change.tiles.push_back(record.tile);
         changes_.push_back(std::move(change));
     }
     for (TileRecord& record : tiles) {
@@ -187,63 +183,60 @@ std::vector<ReplicaChange> Replica::takeChanges() {
     return out;
 }
 
-Status Replica::replay(const ReplicaChange& change) {
-    switch (change.kind) {
-    case ReplicaChange::Kind::kState:
-        if (!change.state)
-            return makeError(ErrorCode::kInvariantBroken, "a recorded state without its world");
-        loadSnapshot(DecodedSnapshot{Terrain(*change.state), change.seq});
-        return Ok{};
-    case ReplicaChange::Kind::kOp: {
-        Result<OpOutcome> outcome = applyOp(change.seq, change.op, change.world_hash);
-        if (!outcome)
-            return outcome.error();
-        return Ok{};
-    }
-    case ReplicaChange::Kind::kRepair: {
-        Result<std::vector<std::int32_t>> left = applyRepair(
-            change.seq, change.world_hash.value_or(0), change.tiles, change.tile_hashes);
-        if (!left)
-            return left.error();
-        return Ok{};
-    }
-    }
-    return makeError(ErrorCode::kInvariantBroken, "an unknown kind of replica change");
+ReplicaSync
+Replica::takeSync(std::vector<std::uint64_t>& versions, std::vector<ReplicaChange> changes) const {
+    ReplicaSync sync;
+    if (!terrain_)
+        return sync;
+    sync.terrain = terrain_->takeSync(versions);
+    sync.changes = std::move(changes);
+    sync.seq = seq_;
+    sync.verified_seq = verified_seq_;
+    sync.verified_hash = verified_hash_;
+    sync.diverged = diverged_;
+    return sync;
 }
 
-void Replica::follow(const Replica& source, std::span<const ReplicaChange> changes) {
-    if (!source.terrain_)
-        return;
-    if (terrain_) {
-        terrain_->syncFrom(*source.terrain_);
-    } else {
-        terrain_.emplace(*source.terrain_);
+void Replica::follow(const ReplicaSync& sync) {
+    if (!terrain_ && !sync.terrain.whole())
+        return; // a copy with nothing yet follows from a whole world (taken with no versions)
+    // a whole world of a new shape is rebuilt; one of the same shape (every tile repaired or
+    // reloaded) is marked by its changes
+    const bool new_shape = !terrain_ || (sync.terrain.whole() &&
+                                         !(terrain_->spec() == sync.terrain.wholeTerrain().spec()));
+    if (!terrain_)
+        terrain_.emplace(sync.terrain.wholeTerrain());
+    else
+        terrain_->applySync(sync.terrain);
+    if (new_shape) {
         dirty_ = DirtySet{};
         dirty_.all = true;
+        genesis_hash_.reset();
     }
-    seq_ = source.seq_;
-    genesis_hash_ = source.genesis_hash_;
-    verified_seq_ = source.verified_seq_;
-    verified_hash_ = source.verified_hash_;
-    diverged_ = source.diverged_;
-    suspects_ = source.suspects_;
-    unverified_tiles_ = source.unverified_tiles_;
-    for (const ReplicaChange& change : changes) {
+    seq_ = sync.seq;
+    verified_seq_ = sync.verified_seq;
+    verified_hash_ = sync.verified_hash;
+    diverged_ = sync.diverged;
+    for (const ReplicaChange& change : sync.changes) {
         switch (change.kind) {
         case ReplicaChange::Kind::kState:
             dirty_ = DirtySet{};
             dirty_.all = true;
+            genesis_hash_.reset();
             break;
         case ReplicaChange::Kind::kOp:
             if (!change.cells.empty())
                 dirty_.cells.push_back(change.cells);
             break;
         case ReplicaChange::Kind::kRepair:
-            for (const TileRecord& record : change.tiles)
-                markTile(record.tile);
+            genesis_hash_.reset();
+            for (std::int32_t tile : change.tiles)
+                markTile(tile);
             break;
         }
     }
+    if (recording_)
+        changes_.insert(changes_.end(), sync.changes.begin(), sync.changes.end());
 }
 
 } // namespace terrain::client

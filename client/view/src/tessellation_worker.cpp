@@ -61,9 +61,7 @@ unsigned TessellationWorkerOptions::defaultThreads() {
 TessellationWorker::TessellationWorker(Replica& replica, const TessellationWorkerOptions& options)
     : options_(options), replica_(&replica) {
     // the worker's world: a copy of the replica's now, which follows it by changed tiles
-    in_world_.follow(replica, {});
-    (void)in_world_.takeDirty();
-    world_.follow(in_world_, {});
+    world_.follow(replica.takeSync(synced_versions_, {}));
     view_.emplace(world_, options.view);
     const unsigned threads =
         options.threads > 0 ? options.threads : TessellationWorkerOptions::defaultThreads();
@@ -104,15 +102,13 @@ void TessellationWorker::post(const roam::Camera& camera, double frame_ms) {
     std::vector<ReplicaChange> changes = replica_->takeChanges();
     (void)replica_->takeDirty(); // nobody reads it beside a worker: it would only grow
     const std::uint64_t frame = ++posted_;
+    ReplicaSync sync;
+    if (!changes.empty())
+        sync = replica_->takeSync(synced_versions_, std::move(changes));
     {
         std::lock_guard lock(in_mutex_);
-        in_world_.follow(*replica_, changes);
-        (void)in_world_.takeDirty(); // the changes themselves go to the worker's world
-        if (in_changes_.empty())
-            in_changes_ = std::move(changes);
-        else
-            for (ReplicaChange& c : changes)
-                in_changes_.push_back(std::move(c));
+        if (!sync.empty())
+            in_syncs_.push_back(std::move(sync));
         in_camera_ = camera;
         in_frame_ = frame;
         in_frame_ms_ = frame_ms;
@@ -154,11 +150,11 @@ bool TessellationWorker::take(roam::DrawnMesh& mesh) {
     return changed;
 }
 
-void TessellationWorker::noteFollowed(std::span<const ReplicaChange> changes) {
+void TessellationWorker::noteFollowed(const ReplicaSync& sync) {
     // after a state the next update rebuilds: nothing before it, or after it in the same step,
     // waits to settle
     const bool rebuild = world_.peekDirty().all;
-    for (const ReplicaChange& change : changes)
+    for (const ReplicaChange& change : sync.changes)
         if (change.kind == ReplicaChange::Kind::kState)
             unsettled_.clear();
         else if (change.kind == ReplicaChange::Kind::kOp && !rebuild && !change.cells.empty())
@@ -196,7 +192,7 @@ void TessellationWorker::publish(WorkerStep& info) {
 }
 
 void TessellationWorker::run() {
-    std::vector<ReplicaChange> changes;
+    std::vector<ReplicaSync> syncs;
     std::uint64_t seen = 0; // the last post taken in
     std::uint64_t steps = 0;
     const bool sliced = !options_.lockstep && options_.step_ms > 0.0;
@@ -207,18 +203,12 @@ void TessellationWorker::run() {
         double frame_ms = 0.0;
         std::optional<double> tau;
         std::optional<std::int64_t> max_triangles;
-        double apply_ms = 0.0; // following the frame's world
         {
             std::unique_lock lock(in_mutex_);
             in_cv_.wait(lock, [&] { return stop_ || in_frame_ != seen || more; });
             if (stop_)
                 return;
-            changes.swap(in_changes_);
-            if (!changes.empty()) {
-                const auto start = std::chrono::steady_clock::now();
-                world_.follow(in_world_, changes);
-                apply_ms = msSince(start);
-            }
+            syncs.swap(in_syncs_);
             camera = in_camera_;
             frame = in_frame_;
             if (frame != seen)
@@ -229,13 +219,17 @@ void TessellationWorker::run() {
         seen = frame;
         WorkerStep info;
 
-        noteFollowed(changes);
-        for (const ReplicaChange& change : changes)
-            info.ops += change.kind == ReplicaChange::Kind::kOp ? 1 : 0;
-        const bool changed = !changes.empty();
-        changes.clear();
-        info.apply_ms = apply_ms;
         auto start = std::chrono::steady_clock::now();
+        for (const ReplicaSync& sync : syncs) {
+            world_.follow(sync);
+            noteFollowed(sync);
+            for (const ReplicaChange& change : sync.changes)
+                info.ops += change.kind == ReplicaChange::Kind::kOp ? 1 : 0;
+        }
+        const bool changed = !syncs.empty();
+        syncs.clear();
+        info.apply_ms = msSince(start);
+        start = std::chrono::steady_clock::now();
         view_->absorb();
         if (tau)
             view_->tessellator().setTau(*tau);

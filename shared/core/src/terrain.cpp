@@ -281,6 +281,92 @@ std::size_t Terrain::syncFrom(const Terrain& from) {
     return copied;
 }
 
+Terrain::TileSync Terrain::takeSync(std::vector<std::uint64_t>& versions) const {
+    TileSync sync;
+    sync.original_ = original_;
+    sync.patch_count_ = patch_count_;
+    sync.world_hash_ = world_hash_;
+    // a copy of another shape, or whose every tile differs (another world, a snapshot loaded:
+    // its spec may differ even at the same tile count), takes the whole terrain
+    bool whole = versions.size() != tiles_.size();
+    if (!whole) {
+        whole = true;
+        for (std::size_t t = 0; t < tiles_.size() && whole; ++t)
+            whole = tiles_[t].version != versions[t];
+    }
+    if (whole) {
+        sync.whole_ = std::make_shared<const Terrain>(*this);
+        versions.resize(tiles_.size());
+        for (std::size_t t = 0; t < tiles_.size(); ++t)
+            versions[t] = tiles_[t].version;
+        return sync;
+    }
+    // the tiles' half-open rectangles, as syncFrom copies them
+    const auto pw = static_cast<std::size_t>(padded_width_);
+    const std::int32_t rows = static_cast<std::int32_t>(samples_.size() / pw);
+    for (std::int32_t tile = 0; tile < spec_.tileCount(); ++tile) {
+        const Tile& mine = tiles_[static_cast<std::size_t>(tile)];
+        std::uint64_t& theirs = versions[static_cast<std::size_t>(tile)];
+        if (mine.version == theirs)
+            continue;
+        theirs = mine.version;
+        TileSync::TileCopy& copy = sync.tiles_.emplace_back();
+        copy.tile = tile;
+        copy.state = mine;
+        const std::int32_t tx = tile % spec_.tilesX();
+        const std::int32_t ty = tile / spec_.tilesX();
+        const std::int32_t x0 = tx * kTileCells;
+        const std::int32_t x1 = tx + 1 == spec_.tilesX() ? padded_width_ : x0 + kTileCells;
+        const std::int32_t y0 = ty * kTileCells;
+        const std::int32_t y1 = ty + 1 == spec_.tilesY() ? rows : y0 + kTileCells;
+        copy.samples.reserve(static_cast<std::size_t>((x1 - x0) * (y1 - y0)));
+        for (std::int32_t y = y0; y < y1; ++y) {
+            const auto row = samples_.begin() +
+                             static_cast<std::ptrdiff_t>(
+                                 static_cast<std::size_t>(y) * pw + static_cast<std::size_t>(x0));
+            copy.samples.insert(copy.samples.end(), row, row + (x1 - x0));
+        }
+    }
+    return sync;
+}
+
+void Terrain::applySync(const TileSync& sync) {
+    if (sync.whole_) {
+        *this = *sync.whole_;
+        return;
+    }
+    const auto pw = static_cast<std::size_t>(padded_width_);
+    const std::int32_t rows = static_cast<std::int32_t>(samples_.size() / pw);
+    for (const TileSync::TileCopy& copy : sync.tiles_) {
+        tiles_[static_cast<std::size_t>(copy.tile)] = copy.state;
+        const std::int32_t tx = copy.tile % spec_.tilesX();
+        const std::int32_t ty = copy.tile / spec_.tilesX();
+        const std::int32_t x0 = tx * kTileCells;
+        const std::int32_t x1 = tx + 1 == spec_.tilesX() ? padded_width_ : x0 + kTileCells;
+        const std::int32_t y0 = ty * kTileCells;
+        const std::int32_t y1 = ty + 1 == spec_.tilesY() ? rows : y0 + kTileCells;
+        auto from = copy.samples.begin();
+        for (std::int32_t y = y0; y < y1; ++y, from += x1 - x0)
+            std::copy_n(
+                from, x1 - x0,
+                samples_.begin() +
+                    static_cast<std::ptrdiff_t>(
+                        static_cast<std::size_t>(y) * pw + static_cast<std::size_t>(x0)));
+    }
+    original_ = sync.original_;
+    patch_count_ = sync.patch_count_;
+    world_hash_ = sync.world_hash_;
+}
+
+std::size_t Terrain::TileSync::bytes() const {
+    if (whole_)
+        return whole_->samples_.size() * sizeof(std::int32_t);
+    std::size_t n = 0;
+    for (const TileCopy& copy : tiles_)
+        n += copy.samples.size() * sizeof(std::int32_t);
+    return n;
+}
+
 std::uint64_t Terrain::streamTileHash(std::int32_t tile, bool genesis) const {
     // the bytes of appendTileBytes, streamed in chunks of a stack buffer: a battle zone's tile
     // holds hundreds of kilobytes of patches, which were copied and zero-filled for every op

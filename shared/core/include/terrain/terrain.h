@@ -150,6 +150,17 @@ class Terrain {
     /// copied. Not thread-safe against writers of either terrain.
     std::size_t syncFrom(const Terrain& from);
 
+    class TileSync;
+    /// syncFrom in two halves, for a copy on another thread: takes the tiles whose version
+    /// differs from `versions` (the copy's, one per tile: resized and brought to this
+    /// terrain's), and the world's totals; or, when the copy holds no terrain of this shape
+    /// (`versions` empty or of another size), the whole terrain. The copy applies it with
+    /// applySync. The cost of the changed tiles: their samples copied, their patch lists shared.
+    TileSync takeSync(std::vector<std::uint64_t>& versions) const;
+    /// Makes this terrain equal to the one `sync` was taken from, when this one was equal to
+    /// it at the versions the taker tracked (syncs apply in the order taken).
+    void applySync(const TileSync& sync);
+
   private:
     struct Tile {
         // ascending by cell; shared with copies of the terrain (a snapshot's), cloned before a
@@ -249,6 +260,31 @@ class Terrain {
     std::vector<std::uint8_t> scratch_;      // reused for tile bytes when hashing
     std::vector<std::uint64_t> tile_hashes_; // reused by rehashWorld
     std::vector<PatchEntry> merge_scratch_;  // reused by applyPatchChanges
+};
+
+/// What Terrain::takeSync took: opaque, movable, applied by Terrain::applySync.
+class Terrain::TileSync {
+  public:
+    /// Tiles it carries (all of them for a whole terrain).
+    std::size_t tileCount() const { return whole_ ? whole_->tiles_.size() : tiles_.size(); }
+    /// Bytes it holds beside the shared lists (a whole terrain: its samples).
+    std::size_t bytes() const;
+    /// It carries the whole terrain (the copy held none of its shape): wholeTerrain() is it.
+    bool whole() const { return whole_ != nullptr; }
+    const Terrain& wholeTerrain() const { return *whole_; }
+
+  private:
+    friend class Terrain;
+    struct TileCopy {
+        std::int32_t tile = 0;
+        Tile state;
+        std::vector<std::int32_t> samples; ///< the tile's half-open rectangle, row by row
+    };
+    std::shared_ptr<const Terrain> whole_; ///< set when the copy held no terrain of this shape
+    std::vector<TileCopy> tiles_;
+    std::shared_ptr<std::vector<std::int32_t>> original_;
+    std::size_t patch_count_ = 0;
+    std::uint64_t world_hash_ = 0;
 };
 
 } // namespace terrain

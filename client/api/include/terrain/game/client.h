@@ -88,7 +88,9 @@ struct ClientOptions {
     /// Reconnect when a live link drops (resuming from the replica's seq).
     bool reconnect = true;
     /// Ops applied per pump() at least (a burst of craters is spread over frames, each frame's
-    /// share at most a backlog / catch_up_frames more); 0: every op as soon as it arrives.
+    /// share at most a backlog / catch_up_frames more); 0: every op as soon as it arrives. With
+    /// network_thread the ops are applied on that thread as they are read, and pump() brings
+    /// the frame's copy up to date whole (the tiles they changed, copied): no pacing.
     int ops_per_frame = 2;
     int catch_up_frames = 8;
     /// The tessellation's screen-space error bound (pixels) and triangle cap.
@@ -98,9 +100,11 @@ struct ClientOptions {
     /// 1, 4). The meshes are the same at any count.
     unsigned worker_threads = 0;
     /// The network on the client's own thread: the link is read, answered and kept alive however
-    /// long the game's frames take, and a join's snapshot is decoded and every op's hash checked
-    /// there; pump() replays the checked changes (paced as above). It costs a second copy of
-    /// the world. Off: pump() reads the network on the game's thread.
+    /// long the game's frames take, and a join's snapshot is decoded and every op applied and
+    /// its hash checked there; pump() copies the tiles the checked changes touched into the
+    /// frame's world (microseconds a crater, where applying one is a millisecond or more). It
+    /// costs a second copy of the world's heights (patch lists are shared). Off: pump() reads
+    /// the network and applies the ops on the game's thread.
     bool network_thread = false;
 };
 

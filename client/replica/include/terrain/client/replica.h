@@ -6,6 +6,7 @@
 // Not thread safe: one owner (the client's frame loop).
 
 #include <terrain/client/replica_change.h>
+#include <terrain/client/replica_sync.h>
 #include <terrain/deform_op.h>
 #include <terrain/result.h>
 #include <terrain/snapshot.h>
@@ -98,24 +99,24 @@ class Replica {
     DirtySet takeDirty();
 
     /// From now on, records every change applied (a state loaded, an op applied, a repair
-    /// applied) for takeChanges(), so that another copy can follow (replay). Off by default: a
-    /// recorded state is a copy of the world.
+    /// applied) for takeChanges(), so that another copy can follow (takeSync). Off by default:
+    /// nothing would take them.
     void recordChanges(bool on);
     bool recordingChanges() const { return recording_; }
     /// The changes recorded since the last call, in the order applied.
     std::vector<ReplicaChange> takeChanges();
-    /// Applies a change another replica recorded, as it applied it (a stale op, a gap or a
-    /// repair at another seq fail as they do there). What it changed is dirty as usual.
-    Status replay(const ReplicaChange& change);
-    /// Becomes equal to `source` without applying anything: copies only the tiles that changed
-    /// since the two were last equal (Terrain::syncFrom; patch lists are shared, copy-on-write,
-    /// so the follower holds no second copy of them), and `source`'s seq and checks. `changes`
-    /// are those `source` recorded since then, in order: what they changed is marked dirty as if
-    /// applied here. The cost of the tiles changed, not of the ops (a crater: microseconds where
-    /// an apply is a millisecond). A replica with no state yet takes a whole copy, all dirty.
-    /// Records nothing. Not thread safe against writers of either replica: a copy on another
-    /// thread follows under a lock both sides take.
-    void follow(const Replica& source, std::span<const ReplicaChange> changes);
+    /// What changed since the copy whose tile versions are `versions` last took a sync
+    /// (Terrain::takeSync: resized and updated; empty: the copy holds nothing yet, and takes the
+    /// whole world), with `changes`, the changes recorded since (takeChanges()). For a copy on
+    /// another thread: hand it over under a lock, apply it there with follow().
+    ReplicaSync
+    takeSync(std::vector<std::uint64_t>& versions, std::vector<ReplicaChange> changes) const;
+    /// Becomes equal to the replica `sync` was taken from without applying anything: copies the
+    /// tiles that changed (their patch lists shared, copy-on-write: no second copy of them) and
+    /// its seq and checks, and marks dirty what the sync's changes changed, as if applied here.
+    /// Syncs apply in the order taken. The cost of the tiles changed, not of the ops (a crater:
+    /// microseconds where its apply is a millisecond). Records the changes when recording.
+    void follow(const ReplicaSync& sync);
     const DirtySet& peekDirty() const { return dirty_; }
 
     const ReplicaStats& stats() const { return stats_; }

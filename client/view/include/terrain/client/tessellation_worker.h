@@ -2,15 +2,15 @@
 
 // The tessellation off the frame thread: a worker thread keeps its own copy of the world and its
 // own TerrainView; for each frame's camera it tessellates and hands the tiles' changes over as a
-// MeshDelta (delta_collector.h). The ops are applied once, on the frame's replica: the worker's
-// copy follows it by the tiles they changed (Replica::follow), through a hand-over copy the frame
-// thread brings up to date at post() and the worker follows at the start of a step, both under
-// the input lock (a crater: a few tiles copied; patch lists shared, copy-on-write). The frame thread never waits for it: post() hands in the
-// frame's changes and camera under a lock held for a move, take() applies the newest finished
-// delta, reached by one atomic exchange (a triple buffer: the worker writes one delta while the
-// frame thread reads another; a third holds the newest finished). A delta the frame thread never
-// took is superseded by the next, which covers it. When the worker is slower than the frames, it
-// skips to the newest camera and the mesh lags: lag() says by how many frames.
+// MeshDelta (delta_collector.h). The ops are applied once, on the frame's replica: at post() the
+// frame thread takes the tiles they changed (Replica::takeSync: samples copied, patch lists
+// shared, copy-on-write) and the worker's copy follows them at the start of its next step
+// (Replica::follow), without applying anything. The frame thread never waits for it: post() hands
+// in the frame's changes and camera under a lock held for a move, take() applies the newest
+// finished delta, reached by one atomic exchange (a triple buffer: the worker writes one delta
+// while the frame thread reads another; a third holds the newest finished). A delta the frame
+// thread never took is superseded by the next, which covers it. When the worker is slower than the
+// frames, it skips to the newest camera and the mesh lags: lag() says by how many frames.
 //
 // Lockstep (tests, benchmarks): every post() waits until the worker has tessellated it, so the
 // steps are the synchronous path's (absorb, update per frame) and the meshes are the same.
@@ -31,7 +31,6 @@
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <span>
 #include <thread>
 #include <vector>
 
@@ -59,10 +58,10 @@ struct TessellationWorkerOptions {
 
 /// What the worker did for the delta the frame thread holds.
 struct WorkerStep {
-    std::uint64_t step = 0;  ///< the worker's steps so far (one per tessellation)
-    std::uint64_t frame = 0; ///< the post whose camera it tessellated (1 = the first)
-    std::uint64_t seq = 0;   ///< the replica seq its world had reached
-    std::uint64_t ops = 0;   ///< ops the step applied (their craters are in its mesh)
+    std::uint64_t step = 0;         ///< the worker's steps so far (one per tessellation)
+    std::uint64_t frame = 0;        ///< the post whose camera it tessellated (1 = the first)
+    std::uint64_t seq = 0;          ///< the replica seq its world had reached
+    std::uint64_t ops = 0;          ///< ops the step applied (their craters are in its mesh)
     std::int64_t max_triangles = 0; ///< the cap the step ran under (the frame budget moves it)
     std::uint64_t world_hash = 0;
     /// Every op up to this seq has converged in the step's mesh: the cells it changed are
@@ -153,10 +152,8 @@ class TessellationWorker {
     // inputs: written by post() under in_mutex_, moved out by the worker
     std::mutex in_mutex_;
     std::condition_variable in_cv_;
-    /// The frame's world as of the last post, which the worker's follows (the changes since it
-    /// last did are in_changes_).
-    Replica in_world_;
-    std::vector<ReplicaChange> in_changes_;
+    /// What the frame's replica changed, post by post, for the worker's world to follow.
+    std::vector<ReplicaSync> in_syncs_;
     roam::Camera in_camera_{};
     std::uint64_t in_frame_ = 0;
     double in_frame_ms_ = 0.0;
@@ -181,6 +178,7 @@ class TessellationWorker {
 
     // the frame thread's
     std::uint64_t posted_ = 0;
+    std::vector<std::uint64_t> synced_versions_; ///< the tiles as the worker's world will hold them
     WorkerStep taken_;
 
     // the worker's (built on the constructing thread before it starts)
@@ -195,7 +193,7 @@ class TessellationWorker {
     std::deque<std::pair<std::uint64_t, CellRect>> unsettled_;
     /// Follows the ops the changes bring (their cells) and what has settled after a step;
     /// returns the step's settled_seq.
-    void noteFollowed(std::span<const ReplicaChange> changes);
+    void noteFollowed(const ReplicaSync& sync);
     std::uint64_t settledSeq();
     /// Collects the tessellator's changes into the back slot with `info` (its collect time and
     /// bytes added) and makes it the newest finished delta.
