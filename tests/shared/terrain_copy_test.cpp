@@ -140,8 +140,10 @@ TEST(TerrainCopy, aSyncTakenOnOneSideAndAppliedOnTheOtherCopiesOnlyTheChangedTil
     crater(t, 120, 30);
     Terrain::TileSync b = t.takeSync(versions);
     copy.applySync(a);
-    copy.applySync(b);
+    copy.applySync(b, Terrain::PatchLists::kOwnCopies); // the same bits either way
     expectEqualCopies(t, copy);
+    crater(t, 121, 31, 6.0); // rewrites the lists the copy took copies of
+    EXPECT_EQ(copy.computeWorldHash(), copy.worldHash());
     // another world of the same size shares no tile: taken whole, as is one of another size
     Terrain unrelated = testing::makeHills(62);
     Terrain::TileSync all = unrelated.takeSync(versions);

@@ -197,17 +197,20 @@ Replica::takeSync(std::vector<std::uint64_t>& versions, std::vector<ReplicaChang
     return sync;
 }
 
-void Replica::follow(const ReplicaSync& sync) {
+void Replica::follow(const ReplicaSync& sync, Terrain::PatchLists lists) {
     if (!terrain_ && !sync.terrain.whole())
         return; // a copy with nothing yet follows from a whole world (taken with no versions)
     // a whole world of a new shape is rebuilt; one of the same shape (every tile repaired or
     // reloaded) is marked by its changes
     const bool new_shape = !terrain_ || (sync.terrain.whole() &&
                                          !(terrain_->spec() == sync.terrain.wholeTerrain().spec()));
-    if (!terrain_)
+    if (!terrain_) {
         terrain_.emplace(sync.terrain.wholeTerrain());
-    else
-        terrain_->applySync(sync.terrain);
+        if (lists == Terrain::PatchLists::kOwnCopies)
+            terrain_->applySync(sync.terrain, lists);
+    } else {
+        terrain_->applySync(sync.terrain, lists);
+    }
     if (new_shape) {
         dirty_ = DirtySet{};
         dirty_.all = true;

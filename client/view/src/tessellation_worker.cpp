@@ -221,7 +221,9 @@ void TessellationWorker::run() {
 
         auto start = std::chrono::steady_clock::now();
         for (const ReplicaSync& sync : syncs) {
-            world_.follow(sync);
+            // its own patch lists: the frame's replica, which applies the ops, then writes its
+            // lists in place rather than cloning a battle tile's thousands of patches per op
+            world_.follow(sync, Terrain::PatchLists::kOwnCopies);
             noteFollowed(sync);
             for (const ReplicaChange& change : sync.changes)
                 info.ops += change.kind == ReplicaChange::Kind::kOp ? 1 : 0;

@@ -330,15 +330,22 @@ Terrain::TileSync Terrain::takeSync(std::vector<std::uint64_t>& versions) const 
     return sync;
 }
 
-void Terrain::applySync(const TileSync& sync) {
+void Terrain::applySync(const TileSync& sync, PatchLists lists) {
+    const auto own = [&](Tile& tile) {
+        if (lists == PatchLists::kOwnCopies)
+            tile.patches = std::make_shared<std::vector<PatchEntry>>(*tile.patches);
+    };
     if (sync.whole_) {
         *this = *sync.whole_;
+        for (Tile& tile : tiles_)
+            own(tile);
         return;
     }
     const auto pw = static_cast<std::size_t>(padded_width_);
     const std::int32_t rows = static_cast<std::int32_t>(samples_.size() / pw);
     for (const TileSync::TileCopy& copy : sync.tiles_) {
         tiles_[static_cast<std::size_t>(copy.tile)] = copy.state;
+        own(tiles_[static_cast<std::size_t>(copy.tile)]);
         const std::int32_t tx = copy.tile % spec_.tilesX();
         const std::int32_t ty = copy.tile / spec_.tilesX();
         const std::int32_t x0 = tx * kTileCells;

@@ -157,9 +157,16 @@ class Terrain {
     /// (`versions` empty or of another size), the whole terrain. The copy applies it with
     /// applySync. The cost of the changed tiles: their samples copied, their patch lists shared.
     TileSync takeSync(std::vector<std::uint64_t>& versions) const;
+    /// How a copy holds the patch lists a sync brings.
+    enum class PatchLists {
+        kShared,    ///< shared with the source, copy-on-write: no second copy in memory
+        kOwnCopies, ///< copied here: the source, once the sync is gone, writes its lists in
+                    ///< place instead of cloning them on its next write (its thread is the
+                    ///< one that must not pay for the copy)
+    };
     /// Makes this terrain equal to the one `sync` was taken from, when this one was equal to
     /// it at the versions the taker tracked (syncs apply in the order taken).
-    void applySync(const TileSync& sync);
+    void applySync(const TileSync& sync, PatchLists lists = PatchLists::kShared);
 
   private:
     struct Tile {

@@ -116,7 +116,8 @@ class Replica {
     /// its seq and checks, and marks dirty what the sync's changes changed, as if applied here.
     /// Syncs apply in the order taken. The cost of the tiles changed, not of the ops (a crater:
     /// microseconds where its apply is a millisecond). Records the changes when recording.
-    void follow(const ReplicaSync& sync);
+    /// With kOwnCopies the patch lists are copied here instead (Terrain::PatchLists).
+    void follow(const ReplicaSync& sync, Terrain::PatchLists lists = Terrain::PatchLists::kShared);
     const DirtySet& peekDirty() const { return dirty_; }
 
     const ReplicaStats& stats() const { return stats_; }
