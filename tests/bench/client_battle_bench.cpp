@@ -24,6 +24,7 @@
 // The goals (client battle budget) are reported as met / not met, never asserted.
 // Exit status: 0; 1 when a replica hash differs from the authority's; 2 on a bad option.
 
+#include "op_apply_thread.h"
 #include "support/bench_facts.h"
 #include "support/tessellator_memory.h"
 
@@ -74,13 +75,14 @@ Json summaryJson(const bench::Summary& s) {
 
 // The tessellator's memory by part, MiB (frame_stats.h says what each holds).
 Json tessellatorParts(const roam::TessellatorMemory& m) {
-    return Json{{"grid", bench::mib(m.grid)},
-                {"records", bench::mib(m.records)},
-                {"grains", Json::array({bench::mib(m.grains[0]), bench::mib(m.grains[1]),
-                                        bench::mib(m.grains[2])})},
-                {"heap", bench::mib(m.heap)},
-                {"meshes", bench::mib(m.meshes)},
-                {"scratch", bench::mib(m.scratch)}};
+    return Json{
+        {"grid", bench::mib(m.grid)},
+        {"records", bench::mib(m.records)},
+        {"grains",
+         Json::array({bench::mib(m.grains[0]), bench::mib(m.grains[1]), bench::mib(m.grains[2])})},
+        {"heap", bench::mib(m.heap)},
+        {"meshes", bench::mib(m.meshes)},
+        {"scratch", bench::mib(m.scratch)}};
 }
 
 // The camera of frame `f`: see the header comment.
@@ -138,6 +140,7 @@ struct Settings {
     bool render = false;
     bool async = false;
     bool lockstep = false;
+    bool apply_thread = false;
     unsigned threads = 0;
     double fps = 60.0;
     double frame_target_ms = 0.0;
@@ -199,6 +202,11 @@ std::optional<int> parseSettings(int argc, char** argv, Settings& s) {
         "--lockstep", s.lockstep,
         "--async: each frame waits for its step (the synchronous path's steps on the worker: "
         "its cost per crater, comparable; --fps ignored)");
+    app.add_flag(
+           "--apply-thread", s.apply_thread,
+           "--async: the ops are applied on a thread of their own, as the library's network thread "
+           "does, and the frame's replica follows it by changed tiles (no pacing)")
+        ->needs("--async");
     app.add_option(
         "--threads", s.threads,
         "--async: threads a worker step may use, its own included (0: min(cores - 1, 4))");
@@ -315,8 +323,10 @@ struct OpFeed {
         : settings(&s), sent(&ops), pacer(s.pacing) {}
     /// More to fly: ops not yet applied, or frames short of --frames.
     bool flying(int f) const { return next < sent->size() || f <= settings->min_frames; }
-    /// Frame f's arrivals, and the ops it applies to `replica`, timed.
-    Frame frame(int f, client::Replica& replica) {
+    /// Frame f's arrivals, and the ops it applies to `replica`, timed. With `applier` (the
+    /// network thread's stand-in) the arrivals go to it at once, and `replica` follows what it
+    /// applied (timed as the apply).
+    Frame frame(int f, client::Replica& replica, bench::OpApplyThread* applier = nullptr) {
         Frame out;
         const std::size_t received = next + arrived_at.size();
         out.arriving =
@@ -327,6 +337,27 @@ struct OpFeed {
                 : 1;
         for (int k = 0; k < out.arriving; ++k)
             arrived_at.push_back(f);
+        if (applier != nullptr) {
+            std::vector<bench::OpApplyThread::Arrival> ops;
+            for (std::size_t k = handed; k < received + static_cast<std::size_t>(out.arriving); ++k)
+                ops.push_back({k + 1, (*sent)[k].op, (*sent)[k].world_hash});
+            handed = received + static_cast<std::size_t>(out.arriving);
+            applier->arrive(std::move(ops));
+            const auto t0 = bench::Clock::now();
+            const std::uint64_t before = replica.seq();
+            for (const client::ReplicaSync& sync : applier->take())
+                replica.follow(sync);
+            out.apply_ms = bench::msSince(t0);
+            out.applying = static_cast<std::size_t>(replica.seq() - before);
+            next += out.applying;
+            seq = replica.seq();
+            for (std::size_t k = 0; k < out.applying; ++k) {
+                max_delay_frames = std::max(max_delay_frames, f - arrived_at.front());
+                arrived_at.pop_front();
+            }
+            hashes_agree = hashes_agree && applier->hashesAgree();
+            return out;
+        }
         // the client's pacing: a burst waits for the next frames
         out.applying = pacer.take(arrived_at.size());
         const auto t0 = bench::Clock::now();
@@ -348,6 +379,7 @@ struct OpFeed {
     client::OpPacer pacer;
     std::deque<int> arrived_at; ///< the frame each waiting op arrived in
     std::size_t next = 0;
+    std::size_t handed = 0; ///< ops handed to the applier
     std::uint64_t seq = 0;
     int max_delay_frames = 0;
     bool hashes_agree = true;
@@ -513,7 +545,8 @@ AsyncTally flyAsync(
     const Battle& battle,
     client::Replica& replica,
     client::TessellationWorker& worker,
-    Renderer& renderer) {
+    Renderer& renderer,
+    bench::OpApplyThread* applier) {
     AsyncTally t;
     roam::DrawnMesh mesh;
     OpFeed feed(s, battle.sent);
@@ -529,7 +562,7 @@ AsyncTally flyAsync(
         const auto started = bench::Clock::now();
         t.late_ms.push_back(std::max(
             0.0, std::chrono::duration<double, std::milli>(started - (deadline - period)).count()));
-        const auto [arriving, applying, apply_ms] = feed.frame(f, replica);
+        const auto [arriving, applying, apply_ms] = feed.frame(f, replica, applier);
         applied_at.resize(feed.seq + 1, f);
         const roam::Camera camera =
             flightCamera(s.flight, f, replica.terrain(), battle.options, s.width, s.height);
@@ -692,6 +725,7 @@ Json asyncReportOf(
     Json report{
         {"benchmark", "client_battle_bench"},
         {"mode", s.lockstep ? "async-lockstep" : "async"},
+        {"apply_thread", s.apply_thread},
         {"date", bench::isoNow()},
         {"cpu", bench::cpuModel()},
         {"cores", std::thread::hardware_concurrency()},
@@ -761,10 +795,11 @@ Json asyncReportOf(
              {"rss_after_flight", t.rss_mib},
              {"drawn_mesh", t.drawn_mesh_mib},
              {"world",
-              Json{{"samples", bench::mib(t.world.sample_bytes)},
-                   {"original", bench::mib(t.world.original_bytes)},
-                   {"patches", bench::mib(t.world.patch_bytes)},
-                   {"tiles", bench::mib(t.world.tile_bytes)}}},
+              Json{
+                  {"samples", bench::mib(t.world.sample_bytes)},
+                  {"original", bench::mib(t.world.original_bytes)},
+                  {"patches", bench::mib(t.world.patch_bytes)},
+                  {"tiles", bench::mib(t.world.tile_bytes)}}},
              {"tessellator", bench::mib(tess_memory.total())},
              {"tessellator_parts", tessellatorParts(tess_memory)},
              {"hand_over", t.steps.empty() ? 0.0 : bench::mib(t.steps.back().collector_bytes)},
@@ -817,11 +852,11 @@ Json asyncReportOf(
                       {"worker_crater_p50_le_3ms", crater.p50 <= 3.0},
                       {"worker_crater_p99_le_8ms", crater.p99 <= 8.0}}}};
     std::printf(
-        "client_battle_bench --async%s (worker on %u threads): %zu ops, %zu frames at %.0f fps, "
+        "client_battle_bench --async%s%s (worker on %u threads): %zu ops, %zu frames at %.0f fps, "
         "%s flight, tau %.2g px, %d x %d%s\n",
-        s.lockstep ? " --lockstep" : "", worker_threads, battle.sent.size(), t.frame_thread.size(),
-        s.lockstep ? 0.0 : s.fps, s.flight.c_str(), s.tau, s.width, s.height,
-        s.render ? ", rendered (OSMesa)" : "");
+        s.lockstep ? " --lockstep" : "", s.apply_thread ? " --apply-thread" : "", worker_threads,
+        battle.sent.size(), t.frame_thread.size(), s.lockstep ? 0.0 : s.fps, s.flight.c_str(),
+        s.tau, s.width, s.height, s.render ? ", rendered (OSMesa)" : "");
     std::printf(
         "  frame thread ms: p50 %.3f p99 %.3f max %.3f (burst frames p99 %.3f; apply p99 %.3f, "
         "post p99 %.3f, take p99 %.3f)\n",
@@ -855,8 +890,7 @@ Json asyncReportOf(
         "  memory after the flight: RSS %.1f MiB (the frame's copy of the tiles %.1f, the "
         "worker's tessellator %.1f, its hand-over %.1f); vertices drawn %llu of the "
         "tessellator's %llu\n",
-        t.rss_mib, t.drawn_mesh_mib,
-        bench::mib(tess_memory.total()),
+        t.rss_mib, t.drawn_mesh_mib, bench::mib(tess_memory.total()),
         t.steps.empty() ? 0.0 : bench::mib(t.steps.back().collector_bytes),
         static_cast<unsigned long long>(t.steps.empty() ? 0 : t.steps.back().drawn_vertices),
         static_cast<unsigned long long>(t.steps.empty() ? 0 : t.steps.back().tessellator_vertices));
@@ -1052,7 +1086,11 @@ int main(int argc, char** argv) {
         wo.threads = s.threads;
         wo.step_ms = s.step_ms;
         client::TessellationWorker worker(replica, wo);
-        const AsyncTally t = flyAsync(s, battle, replica, worker, *renderer);
+        std::optional<bench::OpApplyThread> applier;
+        if (s.apply_thread)
+            applier.emplace(replica);
+        const AsyncTally t =
+            flyAsync(s, battle, replica, worker, *renderer, applier ? &*applier : nullptr);
         const MeasuredError measured =
             s.measure_every > 0 ? measureSamples(t.samples, first_state, battle.sent, s.tau)
                                 : MeasuredError{};
