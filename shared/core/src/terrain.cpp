@@ -241,6 +241,19 @@ std::vector<PatchEntry>& Terrain::mutablePatches(std::size_t tile) {
     return *patches;
 }
 
+Terrain::SampleRect Terrain::tileSamples(std::int32_t tile) const {
+    const std::int32_t tx = tile % spec_.tilesX();
+    const std::int32_t ty = tile / spec_.tilesX();
+    const auto rows =
+        static_cast<std::int32_t>(samples_.size() / static_cast<std::size_t>(padded_width_));
+    SampleRect r;
+    r.x0 = tx * kTileCells;
+    r.x1 = tx + 1 == spec_.tilesX() ? padded_width_ : r.x0 + kTileCells;
+    r.y0 = ty * kTileCells;
+    r.y1 = ty + 1 == spec_.tilesY() ? rows : r.y0 + kTileCells;
+    return r;
+}
+
 std::size_t Terrain::syncFrom(const Terrain& from) {
     if (this == &from)
         return 0;
@@ -249,11 +262,8 @@ std::size_t Terrain::syncFrom(const Terrain& from) {
         *this = from;
         return tiles_.size();
     }
-    // every sample belongs to the half-open rectangle of one tile (the last row and column of
-    // tiles take the grid's last vertex line too); a change to a shared edge vertex renews the
-    // versions of every tile that holds it, so the changed tiles' rectangles hold every change
-    const auto pw = static_cast<std::size_t>(padded_width_);
-    const std::int32_t rows = static_cast<std::int32_t>(samples_.size() / pw);
+    // a change to a shared edge vertex renews the versions of every tile that holds it, so the
+    // changed tiles' rectangles hold every change
     std::size_t copied = 0;
     for (std::int32_t tile = 0; tile < spec_.tileCount(); ++tile) {
         Tile& mine = tiles_[static_cast<std::size_t>(tile)];
@@ -262,17 +272,10 @@ std::size_t Terrain::syncFrom(const Terrain& from) {
             continue;
         mine = theirs;
         ++copied;
-        const std::int32_t tx = tile % spec_.tilesX();
-        const std::int32_t ty = tile / spec_.tilesX();
-        const std::int32_t x0 = tx * kTileCells;
-        const std::int32_t x1 = tx + 1 == spec_.tilesX() ? padded_width_ : x0 + kTileCells;
-        const std::int32_t y0 = ty * kTileCells;
-        const std::int32_t y1 = ty + 1 == spec_.tilesY() ? rows : y0 + kTileCells;
-        for (std::int32_t y = y0; y < y1; ++y) {
-            const std::size_t at = static_cast<std::size_t>(y) * pw + static_cast<std::size_t>(x0);
-            std::copy_n(
-                from.samples_.begin() + static_cast<std::ptrdiff_t>(at), x1 - x0,
-                samples_.begin() + static_cast<std::ptrdiff_t>(at));
+        const SampleRect r = tileSamples(tile);
+        for (std::int32_t y = r.y0; y < r.y1; ++y) {
+            const auto at = static_cast<std::ptrdiff_t>(sampleIndex(r.x0, y));
+            std::copy_n(from.samples_.begin() + at, r.width(), samples_.begin() + at);
         }
     }
     original_ = from.original_;
@@ -301,9 +304,6 @@ Terrain::TileSync Terrain::takeSync(std::vector<std::uint64_t>& versions) const 
             versions[t] = tiles_[t].version;
         return sync;
     }
-    // the tiles' half-open rectangles, as syncFrom copies them
-    const auto pw = static_cast<std::size_t>(padded_width_);
-    const std::int32_t rows = static_cast<std::int32_t>(samples_.size() / pw);
     for (std::int32_t tile = 0; tile < spec_.tileCount(); ++tile) {
         const Tile& mine = tiles_[static_cast<std::size_t>(tile)];
         std::uint64_t& theirs = versions[static_cast<std::size_t>(tile)];
@@ -313,18 +313,11 @@ Terrain::TileSync Terrain::takeSync(std::vector<std::uint64_t>& versions) const 
         TileSync::TileCopy& copy = sync.tiles_.emplace_back();
         copy.tile = tile;
         copy.state = mine;
-        const std::int32_t tx = tile % spec_.tilesX();
-        const std::int32_t ty = tile / spec_.tilesX();
-        const std::int32_t x0 = tx * kTileCells;
-        const std::int32_t x1 = tx + 1 == spec_.tilesX() ? padded_width_ : x0 + kTileCells;
-        const std::int32_t y0 = ty * kTileCells;
-        const std::int32_t y1 = ty + 1 == spec_.tilesY() ? rows : y0 + kTileCells;
-        copy.samples.reserve(static_cast<std::size_t>((x1 - x0) * (y1 - y0)));
-        for (std::int32_t y = y0; y < y1; ++y) {
-            const auto row = samples_.begin() +
-                             static_cast<std::ptrdiff_t>(
-                                 static_cast<std::size_t>(y) * pw + static_cast<std::size_t>(x0));
-            copy.samples.insert(copy.samples.end(), row, row + (x1 - x0));
+        const SampleRect r = tileSamples(tile);
+        copy.samples.reserve(static_cast<std::size_t>(r.width() * (r.y1 - r.y0)));
+        for (std::int32_t y = r.y0; y < r.y1; ++y) {
+            const auto row = samples_.begin() + static_cast<std::ptrdiff_t>(sampleIndex(r.x0, y));
+            copy.samples.insert(copy.samples.end(), row, row + r.width());
         }
     }
     return sync;
@@ -341,24 +334,15 @@ void Terrain::applySync(const TileSync& sync, PatchLists lists) {
             own(tile);
         return;
     }
-    const auto pw = static_cast<std::size_t>(padded_width_);
-    const std::int32_t rows = static_cast<std::int32_t>(samples_.size() / pw);
     for (const TileSync::TileCopy& copy : sync.tiles_) {
         tiles_[static_cast<std::size_t>(copy.tile)] = copy.state;
         own(tiles_[static_cast<std::size_t>(copy.tile)]);
-        const std::int32_t tx = copy.tile % spec_.tilesX();
-        const std::int32_t ty = copy.tile / spec_.tilesX();
-        const std::int32_t x0 = tx * kTileCells;
-        const std::int32_t x1 = tx + 1 == spec_.tilesX() ? padded_width_ : x0 + kTileCells;
-        const std::int32_t y0 = ty * kTileCells;
-        const std::int32_t y1 = ty + 1 == spec_.tilesY() ? rows : y0 + kTileCells;
+        const SampleRect r = tileSamples(copy.tile);
         auto from = copy.samples.begin();
-        for (std::int32_t y = y0; y < y1; ++y, from += x1 - x0)
+        for (std::int32_t y = r.y0; y < r.y1; ++y, from += r.width())
             std::copy_n(
-                from, x1 - x0,
-                samples_.begin() +
-                    static_cast<std::ptrdiff_t>(
-                        static_cast<std::size_t>(y) * pw + static_cast<std::size_t>(x0)));
+                from, r.width(),
+                samples_.begin() + static_cast<std::ptrdiff_t>(sampleIndex(r.x0, y)));
     }
     original_ = sync.original_;
     patch_count_ = sync.patch_count_;

@@ -219,6 +219,23 @@ class Terrain {
     /// refreshBounds(), then the tile's hash (not the world hash).
     void refreshTile(std::int32_t tile);
 
+    /// The half-open rectangle of padded samples that tile t owns: every sample belongs to one
+    /// tile's (the last row and column of tiles take the grid's last vertex line and the
+    /// padding), so copying a changed tile's rectangle copies every change it holds.
+    struct SampleRect {
+        std::int32_t x0 = 0;
+        std::int32_t x1 = 0;
+        std::int32_t y0 = 0;
+        std::int32_t y1 = 0;
+        std::int32_t width() const { return x1 - x0; }
+    };
+    SampleRect tileSamples(std::int32_t tile) const;
+    /// Index of sample (x, y) in samples_.
+    std::size_t sampleIndex(std::int32_t x, std::int32_t y) const {
+        return static_cast<std::size_t>(y) * static_cast<std::size_t>(padded_width_) +
+               static_cast<std::size_t>(x);
+    }
+
     std::int32_t tileOfCell(std::int32_t cx, std::int32_t cy) const {
         return (cy / kTileCells) * spec_.tilesX() + cx / kTileCells;
     }
