@@ -167,8 +167,10 @@ double SplitMerge::frame(
                 due_.push_back(id);
             }
     }
-    // the backlog's best are priced first (known to matter)
-    pullBacklog();
+    // the backlog's best are priced first (known to matter); its merges only where the mesh
+    // needs their room or no split waits, since a step makes its splits first and its merges
+    // with what is left
+    pullBacklog(mesh.needsRoom() || backlog_splits_.empty());
     if (!pulled_.empty()) {
         pulled_.insert(pulled_.end(), due_.begin(), due_.end());
         due_.swap(pulled_);
@@ -216,8 +218,9 @@ double SplitMerge::frame(
             break;
         }
         if (stepping && due_.empty()) {
-            // time left in the step: the backlog's next best
-            pullBacklog();
+            // time left in the step: the backlog's next best (merges while they may still be
+            // made: pricing what the step must defer again was 5,000 merges a battle crater)
+            pullBacklog(!mesh.mergeBudgetSpent(stats));
             due_.swap(pulled_);
             pulled_.clear();
         }
@@ -298,7 +301,7 @@ void SplitMerge::setBacklogPull(std::size_t per_frame) {
     backlog_merges_.clear();
 }
 
-void SplitMerge::pullBacklog() {
+void SplitMerge::pullBacklog(bool merges) {
     // the best of what the budgets left, priced again this frame (still candidates of the same
     // kind, and not re-offered since: those are due or in the heap already)
     // (only up to what the frame can price: candidates the last frame left unpriced come first)
@@ -314,17 +317,18 @@ void SplitMerge::pullBacklog() {
         }
     };
     pull(backlog_splits_, lowerPriority, kSplitCandidate);
-    pull(backlog_merges_, higherPriority, kMergeCandidate);
+    if (merges)
+        pull(backlog_merges_, higherPriority, kMergeCandidate);
 }
 
 void SplitMerge::followCap(
     const FrameStats& stats, std::int64_t triangles, std::int64_t max_triangles, bool pool_quiet) {
     // The cap wins over tau: raise the threshold a step whenever it (or the block pool) refused a
     // split, lower it a step towards tau when the mesh has room to spare. Each change
-    // re-examines every candidate against the new threshold (spread over the next kRekeyFrames
-    // frames by spreadRekey), so the mesh settles on the one a top-down build at the threshold
-    // makes: the best for its triangle count, with no rebuild. A step of 10 % up and 5 % down
-    // moves the count by less than the gap between kCapLow and the cap.
+    // re-examines the candidates whose keys it made late against the new threshold (spread over
+    // the next kRekeyFrames frames by spreadRekey), so the mesh settles on the one a top-down build
+    // at the threshold makes: the best for its triangle count, with no rebuild. A step of 10 % up
+    // and 5 % down moves the count by less than the gap between kCapLow and the cap.
     double next = threshold_;
     if (stats.refused_by_cap > 0 || triangles > max_triangles) { // or a lower cap
         // each refused split wanted at least two triangles more: a view that changed a lot
@@ -342,11 +346,17 @@ void SplitMerge::followCap(
         next = std::max(tau_, threshold_ / kCapStepDown);
     if (next == threshold_ || !rekey_.empty()) // one move at a time
         return;
+    // A key says when a candidate's priority may first cross the threshold. A higher threshold
+    // leaves a split candidate's key early (it is priced a little sooner than it must be: still
+    // right) and a merge candidate's late; a lower one the other way round. So only the kind
+    // whose keys went late is re-examined: about half the heap, not all of it.
+    const std::uint8_t late = next > threshold_ ? kMergeCandidate : kSplitCandidate;
     rekey_from_ = threshold_;
     threshold_ = next;
     rekey_.clear();
     for (std::size_t i = 0; i < heap_.size(); ++i)
-        rekey_.push_back(heap_.at(i).id);
+        if ((space_->state(heap_.at(i).id) & late) != 0)
+            rekey_.push_back(heap_.at(i).id);
     rekey_quota_ = std::max(rekey_.size() / kRekeyFrames + 1, kRekeyAtOnce);
 }
 

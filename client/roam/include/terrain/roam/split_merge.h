@@ -180,8 +180,9 @@ class SplitMerge {
     void doSplits(FrameStats& stats, SplitMergeMesh& mesh);
     /// A priced split or merge the frame's budget (or a refusal) left: into the backlog.
     void defer(const Action& a, std::uint8_t kind);
-    /// The backlog's best, due this frame (backlog_pull_ of each kind).
-    void pullBacklog();
+    /// The backlog's best, due this frame (backlog_pull_ of each kind; splits only unless
+    /// `merges`).
+    void pullBacklog(bool merges);
     /// What this frame left (defer) into the backlog.
     void keepLeft();
     /// Orders of merges (lowest priority first) and splits (highest first); equal priorities

@@ -4,8 +4,9 @@
 // array for one tile (positions in lattice units, heights in metres, normals of the surface),
 // a run of them or a list. Normals are central differences one grid step either side: on the base
 // grid, of the samples a cell apart; inside detail blocks, of the lattice heights a lattice step
-// apart, read from whole cells' 17 x 17 height grids (fillCellHeights, cached for the
-// frame: a cell's grid costs about what four single surface queries do per vertex). A lattice
+// apart, read from whole cells' 17 x 17 height grids (fillCellHeights, cached until the
+// terrain changes there or the cache evicts them, least recently used first: a cell's grid costs
+// about what four single surface queries do per vertex). A lattice
 // point's height is always read from the same cell's grid, so the two copies of a vertex on a
 // cell border get the same normal. Pure: no GL.
 
@@ -13,6 +14,7 @@
 #include <terrain/roam/vertex_slots.h>
 #include <terrain/terrain.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <span>
 #include <unordered_map>
@@ -36,6 +38,11 @@ std::uint32_t packNormal(double nx, double ny, double nz);
 
 class TileVertexBuilder {
   public:
+    /// Grids kept at most by default (4.7 MB): past it, one is evicted per new grid.
+    static constexpr std::size_t kMaxCells = 2048;
+    explicit TileVertexBuilder(std::size_t max_cells = kMaxCells)
+        : max_cells_(std::max<std::size_t>(max_cells, 1)) {}
+
     /// Forgets the cached cell grids: once a frame, before the first build (the terrain may
     /// have changed since the last).
     void newFrame();
@@ -58,6 +65,8 @@ class TileVertexBuilder {
         std::int32_t tile,
         std::span<const std::uint32_t> indices,
         std::span<DrawVertex> out);
+    /// Cell grids held now (at most the max_cells it was made with).
+    std::size_t cachedGrids() const { return cell_slot_.size(); }
     /// Positions and heights only (normal 0): cheap, for validation.
     void positions(
         const Tessellator& tess, std::int32_t tile, std::uint32_t first, std::span<DrawVertex> out);
@@ -70,9 +79,18 @@ class TileVertexBuilder {
     std::uint32_t
     blockNormal(const Terrain& terrain, LatticePoint p, double per_lattice, double per_fine);
 
+    /// A slot held by no grid, by its least recently used one in clock order.
+    std::uint32_t evictOne();
+    static constexpr std::uint64_t kNoCell = ~std::uint64_t{0};
+
+    std::size_t max_cells_ = kMaxCells;
+
     std::vector<TileVertex> keys_;
     std::unordered_map<std::uint64_t, std::uint32_t> cell_slot_; ///< (cx, cy) -> grid slot
-    std::vector<std::int64_t> grids_;       ///< kBlockVertices heights per slot
+    std::vector<std::int64_t> grids_;         ///< kBlockVertices heights per slot
+    std::vector<std::uint64_t> slot_keys_;    ///< per slot: its cell, or kNoCell
+    std::vector<std::uint8_t> recently_used_; ///< per slot: used since the clock last passed
+    std::uint32_t hand_ = 0;
     std::vector<std::uint32_t> free_slots_; ///< slots of forgotten grids
     std::uint64_t last_key_ = ~std::uint64_t{0};
     const std::int64_t* last_grid_ = nullptr;
