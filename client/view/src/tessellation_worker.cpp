@@ -15,12 +15,14 @@ double msSince(std::chrono::steady_clock::time_point start) {
 
 } // namespace
 
-/// The end of a short step, for the tessellator's budgets.
+/// The end of a short step, for the tessellator's budgets: its time, or a post that brought ops.
 class TessellationWorker::StepClock final : public roam::StepDeadline {
   public:
-    explicit StepClock(double step_ms) : step_ms_(step_ms) {}
+    StepClock(double step_ms, const std::atomic<bool>& news) : step_ms_(step_ms), news_(&news) {}
     void start() { started_ = std::chrono::steady_clock::now(); }
     bool spent(double share) const override {
+        if (news_->load(std::memory_order_relaxed))
+            return true;
         return std::chrono::duration<double, std::milli>(
                    std::chrono::steady_clock::now() - started_)
                    .count() >= share * step_ms_;
@@ -28,6 +30,7 @@ class TessellationWorker::StepClock final : public roam::StepDeadline {
 
   private:
     double step_ms_;
+    const std::atomic<bool>* news_;
     std::chrono::steady_clock::time_point started_{};
 };
 
@@ -73,7 +76,7 @@ TessellationWorker::TessellationWorker(Replica& replica, const TessellationWorke
     phase_clock_ = std::make_unique<PhaseClock>();
     view_->tessellator().setPhaseObserver(phase_clock_.get());
     if (!options.lockstep && options.step_ms > 0.0) {
-        step_clock_ = std::make_unique<StepClock>(options.step_ms);
+        step_clock_ = std::make_unique<StepClock>(options.step_ms, news_);
         view_->tessellator().setStepDeadline(step_clock_.get());
     }
     // from here the replica's changes are the worker's: recorded for it, and its dirty set
@@ -107,8 +110,10 @@ void TessellationWorker::post(const roam::Camera& camera, double frame_ms) {
         sync = replica_->takeSync(synced_versions_, std::move(changes));
     {
         std::lock_guard lock(in_mutex_);
-        if (!sync.empty())
+        if (!sync.empty()) {
             in_syncs_.push_back(std::move(sync));
+            news_.store(true, std::memory_order_relaxed);
+        }
         in_camera_ = camera;
         in_frame_ = frame;
         in_frame_ms_ = frame_ms;
@@ -209,6 +214,7 @@ void TessellationWorker::run() {
             if (stop_)
                 return;
             syncs.swap(in_syncs_);
+            news_.store(false, std::memory_order_relaxed);
             camera = in_camera_;
             frame = in_frame_;
             if (frame != seen)
@@ -277,16 +283,20 @@ void TessellationWorker::run() {
             info.tessellator_vertices =
                 roam::DeltaCollector::tessellatorVertexCount(view_->tessellator());
         }
+        // ops came in during the step and cut it short: their heights go first, and the next
+        // step's heights-first delta carries this step's moves too (whatever no delta took
+        // stays pending), so this one is not collected
+        const bool preempted = sliced && news_.load(std::memory_order_relaxed);
         if (sliced) {
             // more to do: the step ended at its deadline with work left, or left a backlog it
             // could act on (one the cap refused waits for the threshold, not another step)
             const roam::FrameStats& st = info.stats;
-            more = st.budget_exhausted || st.stale_blocks > 0 ||
+            more = preempted || st.budget_exhausted || st.stale_blocks > 0 ||
                    (st.backlog > 0 && st.splits + st.merges > 0);
         }
         // a delta the frame has not taken yet would be collected again in the next: publish
         // when it took the last, when the mesh is done, and in lockstep always
-        if (!sliced || !more || frameTookLast() || !published_)
+        if (!published_ || (!preempted && (!sliced || !more || frameTookLast())))
             publish(info);
         info.collect_ms += heights_collect_ms;
         if (options_.keep_step_log) {

@@ -160,6 +160,9 @@ class TessellationWorker {
     std::optional<double> in_tau_;
     std::optional<std::int64_t> in_max_triangles_;
     bool stop_ = false;
+    /// A post brought changes the worker has not taken in: a short step ends at once, so that
+    /// their heights are drawn first (the step's deadline reads it without the lock).
+    std::atomic<bool> news_{false};
 
     // the frame the worker last finished (lockstep and finish() wait for it)
     std::mutex done_mutex_;
