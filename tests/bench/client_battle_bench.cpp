@@ -29,6 +29,7 @@
 #include "support/tessellator_memory.h"
 
 #include <terrain/battle.h>
+#include <terrain/client/crater_latency.h>
 #include <terrain/client/frame_budget.h>
 #include <terrain/client/op_pacing.h>
 #include <terrain/client/replica.h>
@@ -554,16 +555,15 @@ AsyncTally flyAsync(
         std::chrono::duration<double>(1.0 / s.fps));
     auto deadline = bench::Clock::now();
     double last_frame_ms = 0.0;
-    std::vector<int> applied_at{0}; // per seq, the frame that applied it (seq 0: the snapshot)
-    std::uint64_t next_drawn = 1;
-    std::uint64_t next_converged = 1;
+    client::CraterLatency latency;
+    latency.start(replica.seq()); // (the snapshot's ops are not the flight's)
     for (int f = 1; feed.flying(f); ++f) {
         deadline += period;
         const auto started = bench::Clock::now();
         t.late_ms.push_back(std::max(
             0.0, std::chrono::duration<double, std::milli>(started - (deadline - period)).count()));
         const auto [arriving, applying, apply_ms] = feed.frame(f, replica, applier);
-        applied_at.resize(feed.seq + 1, f);
+        latency.applied(f, feed.seq);
         const roam::Camera camera =
             flightCamera(s.flight, f, replica.terrain(), battle.options, s.width, s.height);
         const auto t1 = bench::Clock::now();
@@ -582,14 +582,9 @@ AsyncTally flyAsync(
         t.lag.push_back(static_cast<double>(worker.lag()));
         t.error_bound.push_back(worker.taken().stats.error_bound_pixels);
         t.triangles.push_back(static_cast<double>(worker.taken().stats.triangles));
-        for (; next_drawn <= std::min(worker.taken().seq, feed.seq); ++next_drawn)
-            t.to_drawn.push_back(f - applied_at[next_drawn]);
-        for (; next_converged <= std::min(worker.taken().settled_seq, feed.seq); ++next_converged) {
-            const int from = applied_at[next_converged];
-            t.to_converged.push_back(f - from);
-            t.bound_until_converged.push_back(
-                *std::max_element(t.error_bound.begin() + (from - 1), t.error_bound.begin() + f));
-        }
+        latency.drawn(
+            f, worker.taken().seq, worker.taken().settled_seq,
+            worker.taken().stats.error_bound_pixels);
         if (s.measure_every > 0 && f % s.measure_every == 0 && mesh.tileCount() > 0) {
             const auto t4 = bench::Clock::now();
             DrawnSample& sample = t.samples.emplace_back();
@@ -626,6 +621,9 @@ AsyncTally flyAsync(
     }
     if (replica.worldHash() != battle.final_hash || worker.taken().world_hash != battle.final_hash)
         t.hashes_agree = false;
+    t.to_drawn = latency.framesToDrawn();
+    t.to_converged = latency.framesToConverged();
+    t.bound_until_converged = latency.boundUntilConverged();
     t.steps = worker.stepLog();
     t.drawn_mesh_mib = bench::mib(mesh.memoryBytes());
     t.world = replica.terrain().memoryUsage();

@@ -84,6 +84,11 @@ TEST(Bot, TwoBotsBlastCratersAndEndHoldingTheServersWorld) {
         EXPECT_EQ(r->ops_applied, r->final_seq) << r->name; // every op's hash was checked
         EXPECT_EQ(r->frames, 90);
         EXPECT_GT(r->triangles.median, 100.0);
+        // per op: drawn no later than converged, both within the run
+        EXPECT_TRUE(r->async_tessellation) << r->name;
+        EXPECT_GE(r->crater_frames_to_converged.max, r->crater_frames_to_drawn.max) << r->name;
+        EXPECT_LT(r->crater_frames_to_converged.max, 90.0) << r->name;
+        EXPECT_GT(r->crater_error_bound_until_converged_px.max, 0.0) << r->name;
     }
     // only the renderer counts uploads and writes frames
     EXPECT_GT(alpha.upload_bytes, 0u);
@@ -148,6 +153,7 @@ TEST(Bot, ReportsRoundTripAndBadOnesAreRefusedByName) {
     r.world_hash = 0xfedcba9876543210ull;
     r.synced = true;
     r.tessellate_ms = bot::Spread::of({3.0, 1.0, 2.0});
+    r.crater_frames_to_converged = bot::Spread::of({4.0, 9.0});
     r.pngs = {"a.png"};
     r.error = "the world did not settle";
     const auto path = outputDir() / "report.json";
@@ -158,6 +164,7 @@ TEST(Bot, ReportsRoundTripAndBadOnesAreRefusedByName) {
     EXPECT_EQ(back->final_seq, 42u);
     EXPECT_EQ(back->tessellate_ms.median, 2.0);
     EXPECT_EQ(back->tessellate_ms.max, 3.0);
+    EXPECT_EQ(back->crater_frames_to_converged.max, 9.0);
     EXPECT_EQ(back->pngs, r.pngs);
     EXPECT_EQ(back->error, r.error);
 

@@ -1,5 +1,6 @@
 #include <terrain/bot/bot.h>
 #include <terrain/client/connection.h>
+#include <terrain/client/crater_latency.h>
 #include <terrain/client/replica.h>
 #include <terrain/client/terrain_view.h>
 #include <terrain/client/tessellation_worker.h>
@@ -241,6 +242,9 @@ class BotRun {
             }
             samples_.tessellate_ms.push_back(msSince(t1));
             const client::WorkerStep& step = worker_->taken();
+            const auto index = static_cast<std::int64_t>(samples_.frame_ms.size()) + 1;
+            latency_.applied(index, replica_.seq());
+            latency_.drawn(index, step.seq, step.settled_seq, step.stats.error_bound_pixels);
             samples_.caps.push_back(static_cast<double>(step.max_triangles));
             samples_.error_bounds.push_back(step.stats.error_bound_pixels);
             samples_.triangles.push_back(static_cast<double>(step.stats.triangles));
@@ -383,6 +387,9 @@ class BotRun {
         r.tessellate_ms = Spread::of(samples_.tessellate_ms);
         r.async_tessellation = worker_ != nullptr;
         r.lag_frames = Spread::of(samples_.lags);
+        r.crater_frames_to_drawn = Spread::of(latency_.framesToDrawn());
+        r.crater_frames_to_converged = Spread::of(latency_.framesToConverged());
+        r.crater_error_bound_until_converged_px = Spread::of(latency_.boundUntilConverged());
         r.render_ms = Spread::of(samples_.render_ms);
         r.sync_ms = Spread::of(samples_.sync_ms);
         r.draw_ms = Spread::of(samples_.draw_ms);
@@ -440,8 +447,9 @@ class BotRun {
     std::optional<BotScript> script_;
     std::unique_ptr<client::TerrainView> view_; ///< the synchronous path
     std::unique_ptr<client::TessellationWorker> worker_;
-    roam::DrawnMesh mesh_;  ///< the worker's tiles, as the frame draws them
-    double steer_ms_ = 0.0; ///< the last frame's time, for the triangle budget
+    roam::DrawnMesh mesh_;          ///< the worker's tiles, as the frame draws them
+    client::CraterLatency latency_; ///< per op: frames to drawn, to converged (with a worker)
+    double steer_ms_ = 0.0;         ///< the last frame's time, for the triangle budget
     Renderer gpu_;
     std::array<double, render::GpuTimer::kQueries> gpu_done_{};
     FrameSamples samples_;

@@ -66,6 +66,10 @@ std::string toJson(const BotReport& r) {
         {"tessellate_ms", spreadJson(r.tessellate_ms)},
         {"async_tessellation", r.async_tessellation},
         {"lag_frames", spreadJson(r.lag_frames)},
+        {"crater_frames_to_drawn", spreadJson(r.crater_frames_to_drawn)},
+        {"crater_frames_to_converged", spreadJson(r.crater_frames_to_converged)},
+        {"crater_error_bound_until_converged_px",
+         spreadJson(r.crater_error_bound_until_converged_px)},
         {"render_ms", spreadJson(r.render_ms)},
         {"sync_ms", spreadJson(r.sync_ms)},
         {"draw_ms", spreadJson(r.draw_ms)},
@@ -145,6 +149,13 @@ Result<BotReport> readReport(const std::filesystem::path& path) {
         r.async_tessellation = j.value("async_tessellation", false);
         if (j.contains("lag_frames"))
             r.lag_frames = spreadFrom(j.at("lag_frames"));
+        // added with the per-crater measures (2026-12-08); older reports lack them
+        if (j.contains("crater_frames_to_drawn")) {
+            r.crater_frames_to_drawn = spreadFrom(j.at("crater_frames_to_drawn"));
+            r.crater_frames_to_converged = spreadFrom(j.at("crater_frames_to_converged"));
+            r.crater_error_bound_until_converged_px =
+                spreadFrom(j.at("crater_error_bound_until_converged_px"));
+        }
         r.render_ms = spreadFrom(j.at("render_ms"));
         r.frame_ms = spreadFrom(j.at("frame_ms"));
         r.triangles = spreadFrom(j.at("triangles"));

@@ -44,6 +44,12 @@ struct BotReport {
     Spread tessellate_ms;
     bool async_tessellation = false;
     Spread lag_frames; ///< async: frames the drawn mesh was behind the frame's camera
+    /// async, per op (client::CraterLatency): frames from the frame that applied it to the first
+    /// that drew it and to the first that drew it converged, and the largest error bound drawn
+    /// meanwhile (pixels)
+    Spread crater_frames_to_drawn;
+    Spread crater_frames_to_converged;
+    Spread crater_error_bound_until_converged_px;
     Spread render_ms;  ///< sync + draw + present (0 without rendering)
     Spread sync_ms;    ///< of it, the renderer's sync: vertices, normals, staging, GPU copies
     Spread draw_ms;    ///< the draw calls' submission
