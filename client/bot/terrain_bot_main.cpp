@@ -72,6 +72,11 @@ int main(int argc, char** argv) {
              "rendering, off otherwise)")
             ->check(CLI::NonNegativeNumber);
         a->add_option(
+             "--fps", config.fps,
+             "frames a second to keep, sleeping out the rest of each frame as a game does (0: as "
+             "fast as they go)")
+            ->check(CLI::Range(0.0, 1000.0));
+        a->add_option(
              "--ops-per-frame", config.ops_per_frame,
              "ops applied per frame at least; a burst waits for the next frames (0: each op as "
              "it arrives)")

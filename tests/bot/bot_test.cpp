@@ -49,6 +49,7 @@ TEST(Bot, TwoBotsBlastCratersAndEndHoldingTheServersWorld) {
     a.png_dir = outputDir() / "alpha";
     std::filesystem::remove_all(a.png_dir);
     bot::BotConfig b = botConfig("bravo", 4, server.port(), 2);
+    b.fps = 60.0; // a game's frame loop: 90 frames take 1.5 s
     // they meet before settling, so both end at the server's last seq
     const auto barrier = outputDir() / "barrier";
     std::filesystem::remove_all(barrier);
@@ -95,6 +96,7 @@ TEST(Bot, TwoBotsBlastCratersAndEndHoldingTheServersWorld) {
     EXPECT_EQ(alpha.upload_bytes, alpha.vertex_bytes + alpha.index_bytes);
     EXPECT_GT(alpha.render_ms.median, 0.0);
     EXPECT_EQ(bravo.upload_bytes, 0u);
+    EXPECT_GE(bravo.seconds, 89.0 / 60.0) << "--fps 60 kept no pace";
     EXPECT_NE(alpha.renderer.find("OpenGL"), std::string::npos) << alpha.renderer;
     ASSERT_EQ(alpha.pngs.size(), 2u);
 

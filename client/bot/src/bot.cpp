@@ -302,6 +302,9 @@ class BotRun {
 
     /// The script's frames, with its PNGs, pings and crater clicks.
     void fly() {
+        const auto period = std::chrono::duration_cast<Clock::duration>(
+            std::chrono::duration<double>(config_.fps > 0.0 ? 1.0 / config_.fps : 0.0));
+        Clock::time_point deadline = Clock::now();
         for (int f = 0; f < config_.script.frames; ++f) {
             const roam::Camera camera = script_->camera(f, replica_.terrain());
             frame(camera);
@@ -317,6 +320,11 @@ class BotRun {
                 connection_->ping();
             if (script_->craterDue(f))
                 click(f, camera);
+            if (config_.fps > 0.0) {
+                // a late frame starts the next period from now rather than catching up
+                deadline = std::max(deadline + period, Clock::now());
+                std::this_thread::sleep_until(deadline);
+            }
         }
     }
 

@@ -35,6 +35,10 @@ struct BotConfig {
     /// 0: each op as it arrives.
     int ops_per_frame = client::kDefaultOpsPerFrame;
     bool render = false; ///< offscreen: frame times include drawing
+    /// Frames a second the flight keeps, sleeping out what a frame leaves, as a game's loop
+    /// does (0: as fast as frames go; a headless bot's frames then take microseconds, and a
+    /// worker's steps span hundreds of them).
+    double fps = 0.0;
     /// The tessellation runs on a worker thread (client::TessellationWorker): the frame posts its
     /// camera and takes the newest finished tiles, never waiting. false: on the frame thread
     /// (TerrainView, the synchronous path).
